@@ -1,0 +1,15 @@
+# Fails the build when a core/ file includes gRPC, protobuf or HTTP headers (STYLE.md rule 1).
+# Run as: cmake -DSOURCE_DIR=<core dir> -DSTAMP=<file> -P CheckLayering.cmake
+file(GLOB_RECURSE core_files "${SOURCE_DIR}/*.hpp" "${SOURCE_DIR}/*.cpp")
+set(violations "")
+foreach(f IN LISTS core_files)
+    file(STRINGS "${f}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"](grpc|grpcpp|google/protobuf|httplib|soilvol/v1|prometheus)")
+    if(lines)
+        list(APPEND violations "${f}: ${lines}")
+    endif()
+endforeach()
+if(violations)
+    string(REPLACE ";" "\n" msg "${violations}")
+    message(FATAL_ERROR "core/ must not include gRPC, protobuf or HTTP headers:\n${msg}")
+endif()
+file(TOUCH "${STAMP}")

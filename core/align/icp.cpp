@@ -1,0 +1,156 @@
+#include "core/align/icp.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "absl/strings/str_format.h"
+#include "core/cloud/kd_tree.hpp"
+#include "core/cloud/voxel_grid.hpp"
+
+namespace soilvol::align {
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+struct System {
+    Matrix6d H = Matrix6d::Zero();
+    Vector6d g = Vector6d::Zero();
+    double sq_sum = 0.0;
+    std::size_t count = 0;
+};
+
+// The scan points near the model at its initial pose, voxel-averaged.
+Cloud PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
+                    const AlignConfig& config) {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& p : source) centre += p.cast<double>();
+    centre /= static_cast<double>(std::max<std::size_t>(source.size(), 1));
+    double radius = 0.0;
+    for (const auto& p : source) radius = std::max(radius, (p.cast<double>() - centre).norm());
+    const Eigen::Vector3f c = (initial * centre).cast<float>();
+    const auto r2 = static_cast<float>(std::pow(radius + config.crop_margin_m, 2));
+    Cloud cropped;
+    cropped.reserve(scan.size());
+    for (const auto& p : scan) {
+        if ((p - c).squaredNorm() <= r2) cropped.push_back(p);
+    }
+    return cloud::VoxelDownsample(cropped, config.target_voxel_m);
+}
+
+// Point-to-plane normal equations at pose T: r = n'.(T p - q), left perturbation (w, t).
+System Linearize(const Cloud& source, const Cloud& normals, const Pose& T, const Cloud& target,
+                 const cloud::KdTree& tree, double max_dist, double max_residual, int threads) {
+    System total;
+    const Eigen::Matrix3f R = T.linear().cast<float>();
+    const Eigen::Vector3f t = T.translation().cast<float>();
+    const auto max_d2 = static_cast<float>(max_dist * max_dist);
+#pragma omp parallel num_threads(threads)
+    {
+        System local;
+#pragma omp for schedule(static) nowait
+        for (long i = 0; i < static_cast<long>(source.size()); ++i) {
+            const auto k = static_cast<std::size_t>(i);
+            const Eigen::Vector3f p = R * source[k] + t;
+            const auto [j, d2] = tree.Nearest(p);
+            if (j < 0 || d2 > max_d2) continue;
+            const Eigen::Vector3d n = (R * normals[k]).cast<double>();
+            const Eigen::Vector3d pd = p.cast<double>();
+            const double r = n.dot(pd - target[static_cast<std::size_t>(j)].cast<double>());
+            if (std::abs(r) > max_residual) continue;
+            Vector6d J;
+            J << pd.cross(n), n;
+            local.H.noalias() += J * J.transpose();
+            local.g.noalias() += J * r;
+            local.sq_sum += r * r;
+            ++local.count;
+        }
+#pragma omp critical
+        {
+            total.H += local.H;
+            total.g += local.g;
+            total.sq_sum += local.sq_sum;
+            total.count += local.count;
+        }
+    }
+    return total;
+}
+
+Pose Exp(const Vector6d& xi) {
+    Pose step = Pose::Identity();
+    const double angle = xi.head<3>().norm();
+    if (angle > 1e-12) {
+        step.linear() = Eigen::AngleAxisd(angle, xi.head<3>() / angle).toRotationMatrix();
+    }
+    step.translation() = xi.tail<3>();
+    return step;
+}
+
+}  // namespace
+
+AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
+                  const Pose& initial_T_scan_container, const AlignConfig& config) {
+    AlignResult result;
+    result.T_scan_container = initial_T_scan_container;
+    const Cloud target = PrepareTarget(source, scan, initial_T_scan_container, config);
+    result.target_points = target.size();
+    if (target.empty() || source.empty()) return result;
+    const cloud::KdTree tree(target);
+    const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();
+    std::vector<double> stages;
+    if (config.coarse_max_correspondence_m > config.max_correspondence_m) {
+        stages.push_back(config.coarse_max_correspondence_m);
+    }
+    stages.push_back(config.max_correspondence_m);
+    Pose& T = result.T_scan_container;
+    for (std::size_t s = 0; s < stages.size(); ++s) {
+        const bool fine = s + 1 == stages.size();
+        bool stage_converged = false;
+        while (result.iterations < config.max_iterations && !stage_converged) {
+            const System sys = Linearize(source, normals, T, target, tree, stages[s],
+                                         config.ransac_outlier_rejection_m, threads);
+            if (sys.count < 6) break;
+            const Matrix6d H = sys.H + 1e-9 * Matrix6d::Identity();
+            const Vector6d xi = H.ldlt().solve(-sys.g);
+            T = Exp(xi) * T;
+            ++result.iterations;
+            stage_converged = std::max(xi.head<3>().squaredNorm(), xi.tail<3>().squaredNorm()) <
+                              config.transformation_epsilon;
+        }
+        if (fine) result.converged = stage_converged;
+    }
+    // Figures at the final pose, fine distance.
+    const System sys = Linearize(source, normals, T, target, tree, config.max_correspondence_m,
+                                 config.ransac_outlier_rejection_m, threads);
+    result.correspondences = sys.count;
+    result.fitness = static_cast<double>(sys.count) / static_cast<double>(source.size());
+    if (sys.count >= 6) {
+        result.rmse_m = std::sqrt(sys.sq_sum / static_cast<double>(sys.count));
+        // Offset of the opening centre along its normal: d = n_c . (t + w x o).
+        const Eigen::Vector3d o = T.translation();
+        const Eigen::Vector3d nc = T.linear().col(2);
+        Vector6d grad;
+        grad << o.cross(nc), nc;
+        const Matrix6d cov = result.rmse_m * result.rmse_m *
+                             (sys.H + 1e-9 * Matrix6d::Identity()).inverse();
+        result.z_sigma_m = std::sqrt(std::max(0.0, grad.dot(cov * grad)));
+    }
+    return result;
+}
+
+absl::Status CheckAlignment(const AlignResult& result, const AlignGate& gate) {
+    const bool bad = result.fitness < gate.min_fitness || result.rmse_m > gate.max_rmse_m ||
+                     (gate.require_converged && !result.converged);
+    if (!bad) return absl::OkStatus();
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "alignment rejected: fitness %.3f (minimum %.3f), rmse %.4f m (maximum %.4f m), %s after "
+        "%d iterations; is the container's outside visible and near its registered pose?",
+        result.fitness, gate.min_fitness, result.rmse_m, gate.max_rmse_m,
+        result.converged ? "converged" : "not converged", result.iterations));
+}
+
+}  // namespace soilvol::align

@@ -1,0 +1,51 @@
+#pragma once
+
+#include <cstddef>
+
+#include "absl/status/status.h"
+#include "core/common/types.hpp"
+
+namespace soilvol::align {
+
+/// ICP of the model's outside (source) onto a new scan (target), paper Sec. 3.3. Point-to-plane
+/// Gauss-Newton with the model's normals; the paper's values are the defaults.
+struct AlignConfig {
+    int max_iterations = 200;                 ///< paper: 200
+    double max_correspondence_m = 0.05;       ///< paper: 0.05 m
+    double ransac_outlier_rejection_m = 1.0;  ///< paper: 1; residuals above it are rejected
+    double transformation_epsilon = 1e-8;     ///< paper: 1e-8; squared step [m^2, rad^2] to stop
+    /// A first stage at this correspondence distance catches pose changes larger than the
+    /// paper's 5 cm before the fine stage; 0 = paper only.
+    double coarse_max_correspondence_m = 0.20;
+    double target_voxel_m = 0.02;  ///< scan voxel averaging for correspondences; 0 = off
+    double crop_margin_m = 0.30;   ///< scan cropped to the model's extent plus this margin
+    int num_threads = 0;           ///< 0 = all cores
+};
+
+/// Refuses a volume from a bad alignment.
+struct AlignGate {
+    double min_fitness = 0.3;  ///< share of model points with a scan point within the fine distance
+    double max_rmse_m = 0.05;  ///< point-to-plane RMS of those correspondences
+    bool require_converged = true;
+};
+
+struct AlignResult {
+    Pose T_scan_container = Pose::Identity();  ///< the container in the new scan
+    bool converged = false;
+    int iterations = 0;
+    double fitness = 0.0;  ///< share of source points with a correspondence (fine distance)
+    double rmse_m = 0.0;   ///< point-to-plane RMS of the correspondences
+    std::size_t correspondences = 0;
+    double z_sigma_m = 0.0;  ///< 1-sigma of the opening's offset along its normal, from the fit
+    std::size_t target_points = 0;
+};
+
+/// Aligns `source` (container frame, with unit `normals`) to `scan` (scan frame), starting at
+/// `initial_T_scan_container`.
+AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
+                  const Pose& initial_T_scan_container, const AlignConfig& config);
+
+/// FailedPrecondition naming the figures when `result` does not pass `gate`.
+absl::Status CheckAlignment(const AlignResult& result, const AlignGate& gate);
+
+}  // namespace soilvol::align

@@ -1,0 +1,46 @@
+#pragma once
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "core/common/types.hpp"
+
+namespace soilvol::cloud {
+
+/// Points bucketed into cubic voxels of `voxel_size_m`, sorted by voxel so that each voxel is
+/// one contiguous range of `Order()`. Lookups are by integer voxel coordinates.
+class VoxelGrid {
+public:
+    /// Buckets `points` (kept by reference; must outlive the grid). `voxel_size_m` > 0.
+    VoxelGrid(const Cloud& points, double voxel_size_m);
+
+    double VoxelSize() const { return voxel_size_m_; }
+    /// Number of occupied voxels.
+    std::size_t NumVoxels() const { return starts_.size() - 1; }
+    /// Point indices of occupied voxel `v` as [begin, end) into Order().
+    std::pair<std::size_t, std::size_t> Range(std::size_t v) const {
+        return {starts_[v], starts_[v + 1]};
+    }
+    /// Point indices sorted by voxel.
+    const std::vector<uint32_t>& Order() const { return order_; }
+    /// Integer coordinates of occupied voxel `v`.
+    Eigen::Vector3i Coord(std::size_t v) const;
+    /// Occupied voxel at integer coordinates `c`, or -1.
+    int64_t Find(const Eigen::Vector3i& c) const;
+    /// Integer coordinates of the voxel holding `p`.
+    Eigen::Vector3i CoordOf(const Eigen::Vector3f& p) const;
+
+private:
+    const Cloud& points_;
+    double voxel_size_m_;
+    Eigen::Vector3d origin_;
+    std::vector<uint64_t> keys_;  // one per occupied voxel, ascending
+    std::vector<std::size_t> starts_;
+    std::vector<uint32_t> order_;
+};
+
+/// Centroid of the points in each occupied voxel of `voxel_size_m` (<= 0 returns a copy).
+Cloud VoxelDownsample(const Cloud& points, double voxel_size_m);
+
+}  // namespace soilvol::cloud

@@ -1,0 +1,19 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <vector>
+
+namespace soilvol {
+
+/// A point cloud: 3D points [m] in the frame its owner names (scan frame unless stated).
+using Cloud = std::vector<Eigen::Vector3f>;
+
+/// A rigid transform; `T_a_b` maps points from frame b into frame a.
+using Pose = Eigen::Isometry3d;
+
+/// The four opening corners [m], ordered around the opening.
+using Corners = std::array<Eigen::Vector3d, 4>;
+
+}  // namespace soilvol

@@ -1,0 +1,57 @@
+#pragma once
+
+#include <cstddef>
+
+#include "absl/status/statusor.h"
+#include "core/cloud/preprocess.hpp"
+#include "core/common/types.hpp"
+#include "core/model/opening.hpp"
+#include "core/volume/heightmap_volume.hpp"
+
+namespace soilvol::model {
+
+struct ModelConfig {
+    cloud::PreprocessConfig preprocess;
+    OpeningConfig opening;
+    /// Empty points over the opening and up to this far above it belong to the inside (Fig. 6).
+    double inside_above_m = 0.05;
+    /// Alignment set: outside points, minus a band this wide around the opening below the rim
+    /// (the inner walls that soil will cover), voxel-averaged at `alignment_voxel_m`.
+    double wall_band_m = 0.05;
+    double alignment_voxel_m = 0.03;
+    double normal_radius_m = 0.10;  ///< neighbourhood of the alignment normals
+    std::size_t min_inside_points = 30;
+    std::size_t min_alignment_points = 50;
+    volume::HeightmapConfig heightmap;  ///< used for the empty surface and the capacities
+};
+
+/// The container model (paper Sec. 3.2), built once from a scan of the empty container.
+/// Clouds are in the container frame of `opening`.
+struct ContainerModel {
+    Opening opening;  ///< T_scan_container: the container in the empty scan's frame
+    Cloud inside;     ///< empty points over the opening (volume reference)
+    Cloud alignment_points;   ///< outside points used for ICP
+    Cloud alignment_normals;  ///< unit normals of alignment_points
+    double depth_m = 0.0;                 ///< opening plane to the lowest empty-surface cell
+    double struck_capacity_m3 = 0.0;      ///< empty surface to the opening plane
+    double heaped_capacity_sae_m3 = 0.0;  ///< struck + 1:1 heap (SAE J296)
+    double heaped_capacity_iso_m3 = 0.0;  ///< struck + 2:1 heap (ISO 7546)
+    double noise_sigma_m = 0.0;           ///< robust noise of the empty surface fit
+    std::size_t scan_points = 0;          ///< after preprocessing
+    std::size_t outside_points = 0;
+};
+
+/// Builds the model from an empty scan (scan frame) and its 4 opening corners (scan frame,
+/// ordered around the opening). InvalidArgument for bad corners; FailedPrecondition when too
+/// few points fall inside or outside the opening.
+absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
+                                                   const ModelConfig& config);
+
+/// Struck capacity [m^3] from an empty surface: sum over cells of area x depth below z = 0.
+/// Heaped capacity adds slope x the integral of the distance to the opening edge:
+///   SAE J296 (1:1):  V_heaped = V_struck + 1.0 * int_A d(x, y) dA
+///   ISO 7546 (2:1):  V_heaped = V_struck + 0.5 * int_A d(x, y) dA
+/// (for an L x W rectangle, int_A d dA = W^2 L / 4 - W^3 / 12).
+double HeapVolume(const Polygon2d& opening, double slope);
+
+}  // namespace soilvol::model

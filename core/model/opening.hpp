@@ -1,0 +1,34 @@
+#pragma once
+
+#include "absl/status/statusor.h"
+#include "core/common/polygon.hpp"
+#include "core/common/types.hpp"
+
+namespace soilvol::model {
+
+struct OpeningConfig {
+    double min_edge_m = 0.05;           ///< shorter opening edges are a marking mistake
+    double max_nonplanarity = 0.15;     ///< corner offset from their plane / shortest edge
+    double min_corner_area_ratio = 0.02;  ///< each corner triangle vs the opening area
+};
+
+/// The opening of a container and the container frame it defines: origin at the opening's
+/// centroid, z along the opening normal pointing out of the container, x along corner 0 -> 1.
+struct Opening {
+    Pose T_scan_container = Pose::Identity();  ///< container frame in the scan frame
+    Polygon2d polygon;                         ///< corners in the container frame (z = 0)
+    double nonplanarity_m = 0.0;               ///< largest corner offset from the fitted plane
+    double area_m2 = 0.0;
+};
+
+/// Builds the opening from 4 corners (scan frame, ordered around the opening) and the empty
+/// scan, whose points over the opening decide which side is the inside. InvalidArgument for
+/// non-finite, coincident, collinear, self-intersecting or far-from-planar corners, and when
+/// no scan point lies over the opening.
+absl::StatusOr<Opening> MakeOpening(const Corners& corners_scan, const Cloud& empty_scan,
+                                    const OpeningConfig& config);
+
+/// `points` mapped from the scan frame into the container frame by `T_scan_container`.
+Cloud ToContainerFrame(const Cloud& points, const Pose& T_scan_container);
+
+}  // namespace soilvol::model

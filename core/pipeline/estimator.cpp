@@ -1,0 +1,65 @@
+#include "core/pipeline/estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/status/status.h"
+#include "core/common/status_macros.hpp"
+#include "core/common/timer.hpp"
+
+namespace soilvol::pipeline {
+namespace {
+
+absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& model,
+                                               const Cloud& aligned,
+                                               const EstimateConfig& config) {
+    const Polygon2d& opening = model.opening.polygon;
+    if (config.method == volume::Method::kPaper) {
+        const Cloud column = volume::SelectColumn(aligned, opening, -model.depth_m, config.heightmap);
+        return volume::PaperVolume(model.inside, column, opening, config.paper);
+    }
+    return volume::HeightmapVolume(model.inside, aligned, opening, config.heightmap);
+}
+
+}  // namespace
+
+absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
+                                              const EstimateConfig& config) {
+    if (scan.empty()) return absl::InvalidArgumentError("scan has no points");
+    VolumeEstimate estimate;
+    Timer total;
+    Timer timer;
+    // Sec. 3.1: background and outlier removal.
+    const cloud::PreprocessResult pre = cloud::Preprocess(scan, config.preprocess);
+    estimate.input_points = scan.size();
+    estimate.preprocessed_points = pre.points.size();
+    estimate.timings.range_ms = pre.range_ms;
+    estimate.timings.outliers_ms = pre.outliers_ms + pre.voxel_ms;
+    if (pre.points.empty()) {
+        return absl::InvalidArgumentError("no scan point is left after range and outlier removal");
+    }
+    timer.Lap();
+    // Sec. 3.3: align the model's outside to the scan.
+    const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
+    estimate.alignment = align::Align(model.alignment_points, model.alignment_normals, pre.points,
+                                      initial, config.align);
+    estimate.timings.align_ms = timer.Lap();
+    SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
+    // Sec. 3.4: grid and integrate in the container frame.
+    const Cloud aligned = model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container);
+    SOILVOL_ASSIGN_OR_RETURN(estimate.volume, Integrate(model, aligned, config));
+    estimate.timings.volume_ms = timer.Lap();
+    estimate.volume_m3 = estimate.volume.volume_m3;
+    const double align_m3 = model.opening.area_m2 * estimate.alignment.z_sigma_m;
+    estimate.uncertainty_m3 = std::hypot(estimate.volume.uncertainty_m3, align_m3);
+    if (model.struck_capacity_m3 > 0.0) {
+        estimate.fill_ratio_struck = estimate.volume_m3 / model.struck_capacity_m3;
+    }
+    if (model.heaped_capacity_sae_m3 > 0.0) {
+        estimate.fill_ratio_heaped = estimate.volume_m3 / model.heaped_capacity_sae_m3;
+    }
+    estimate.timings.total_ms = total.Lap();
+    return estimate;
+}
+
+}  // namespace soilvol::pipeline

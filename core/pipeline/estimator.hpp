@@ -1,0 +1,55 @@
+#pragma once
+
+#include <cstddef>
+#include <optional>
+
+#include "absl/status/statusor.h"
+#include "core/align/icp.hpp"
+#include "core/cloud/preprocess.hpp"
+#include "core/model/container_model.hpp"
+#include "core/volume/heightmap_volume.hpp"
+#include "core/volume/paper_volume.hpp"
+#include "core/volume/volume_result.hpp"
+
+namespace soilvol::pipeline {
+
+struct EstimateConfig {
+    cloud::PreprocessConfig preprocess;
+    align::AlignConfig align;
+    align::AlignGate gate;
+    volume::Method method = volume::Method::kHeightmap;
+    volume::HeightmapConfig heightmap;
+    volume::PaperConfig paper;
+    /// Container pose in the scan frame from the machine's kinematics; default: the pose it had
+    /// in the empty scan.
+    std::optional<Pose> initial_T_scan_container;
+};
+
+/// Wall-clock time per stage [ms].
+struct StageTimings {
+    double range_ms = 0.0;
+    double outliers_ms = 0.0;
+    double align_ms = 0.0;
+    double volume_ms = 0.0;
+    double total_ms = 0.0;
+};
+
+struct VolumeEstimate {
+    double volume_m3 = 0.0;
+    double uncertainty_m3 = 0.0;      ///< 1-sigma: per-cell statistics and alignment
+    double fill_ratio_struck = 0.0;   ///< volume / struck capacity
+    double fill_ratio_heaped = 0.0;   ///< volume / heaped capacity (SAE J296)
+    volume::VolumeResult volume;      ///< grid, per-cell heights and counts
+    align::AlignResult alignment;
+    StageTimings timings;
+    std::size_t input_points = 0;
+    std::size_t preprocessed_points = 0;
+};
+
+/// Sec. 3.1-3.4 in order: preprocess the scan, align the model's outside to it, refuse a bad
+/// alignment (FailedPrecondition with the figures), integrate the soil with the chosen method.
+/// InvalidArgument for an empty scan.
+absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
+                                              const EstimateConfig& config);
+
+}  // namespace soilvol::pipeline

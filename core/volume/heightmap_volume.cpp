@@ -1,0 +1,119 @@
+#include "core/volume/heightmap_volume.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/common/status_macros.hpp"
+
+namespace soilvol::volume {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double LowQuantileZ(const Cloud& points, double q) {
+    std::vector<float> z;
+    z.reserve(points.size());
+    for (const auto& p : points) z.push_back(p.z());
+    if (z.empty()) return 0.0;
+    const auto k = static_cast<long>(q * static_cast<double>(z.size() - 1));
+    std::nth_element(z.begin(), z.begin() + k, z.end());
+    return static_cast<double>(z[static_cast<std::size_t>(k)]);
+}
+
+double MaxInradius(const Polygon2d& opening) {
+    const Eigen::Vector2d lo = opening.Min(), hi = opening.Max();
+    double best = 0.0;
+    constexpr int kSamples = 64;
+    for (int i = 0; i < kSamples; ++i) {
+        for (int j = 0; j < kSamples; ++j) {
+            const Eigen::Vector2d p =
+                lo + (hi - lo).cwiseProduct(Eigen::Vector2d((i + 0.5) / kSamples, (j + 0.5) / kSamples));
+            if (opening.Contains(p)) best = std::max(best, opening.DistanceToBoundary(p));
+        }
+    }
+    return best;
+}
+
+std::size_t CountInside(const Cloud& points, const Polygon2d& opening) {
+    std::size_t n = 0;
+    for (const auto& p : points) {
+        if (opening.Contains(p.head<2>().cast<double>())) ++n;
+    }
+    return n;
+}
+
+}  // namespace
+
+double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening,
+                         const HeightmapConfig& config) {
+    const Eigen::Vector2d extent = opening.Max() - opening.Min();
+    const double max_cell = std::max(config.min_cell_m, config.max_cell_fraction * extent.minCoeff());
+    if (points_in_opening == 0) return max_cell;
+    const double cell =
+        std::sqrt(config.target_points_per_cell * opening.Area() / static_cast<double>(points_in_opening));
+    return std::clamp(cell, config.min_cell_m, max_cell);
+}
+
+Cloud SelectColumn(const Cloud& scan, const Polygon2d& opening, double empty_min_z,
+                   const HeightmapConfig& config) {
+    const Eigen::Vector2d lo = opening.Min(), hi = opening.Max();
+    const double z_min = empty_min_z - config.column_margin_m;
+    const double z_max = config.max_heap_slope * MaxInradius(opening) + config.column_margin_m;
+    Cloud column;
+    for (const auto& p : scan) {
+        const double x = static_cast<double>(p.x()), y = static_cast<double>(p.y());
+        const double z = static_cast<double>(p.z());
+        if (x >= lo.x() && x <= hi.x() && y >= lo.y() && y <= hi.y() && z >= z_min && z <= z_max) {
+            column.push_back(p);
+        }
+    }
+    return column;
+}
+
+absl::StatusOr<VolumeResult> HeightmapVolume(const Cloud& empty_inside, const Cloud& scan,
+                                             const Polygon2d& opening,
+                                             const HeightmapConfig& config) {
+    const Cloud column = SelectColumn(scan, opening, LowQuantileZ(empty_inside, 0.005), config);
+    const double cell_m = config.cell_m > 0.0
+                              ? config.cell_m
+                              : AutomaticCellSize(CountInside(column, opening), opening, config);
+    VolumeResult result;
+    result.grid = MakeGrid(opening, cell_m);
+    const Grid& grid = result.grid;
+    SOILVOL_ASSIGN_OR_RETURN(const SurfaceMap empty, EstimateSurface(grid, empty_inside, config.surface));
+    SOILVOL_ASSIGN_OR_RETURN(const SurfaceMap soil, EstimateSurface(grid, column, config.surface));
+    const auto num_cells = static_cast<std::size_t>(grid.NumCells());
+    result.soil_height_m.assign(num_cells, kNaN);
+    result.state.assign(num_cells, CellState::kOutside);
+    // Signed sum: a cell's noise below the empty surface cancels noise above it elsewhere.
+    const double ks = static_cast<double>(soil.window_cells * soil.window_cells);
+    const double ke = static_cast<double>(empty.window_cells * empty.window_cells);
+    double variance = 0.0;
+    for (std::size_t k = 0; k < num_cells; ++k) {
+        const double w = grid.weight[k];
+        if (w <= 0.0) continue;
+        const double h = soil.height[k] - empty.height[k];
+        const double var = ks * soil.variance[k] + ke * empty.variance[k];
+        result.soil_height_m[k] = h;
+        result.raw_volume_m3 += w * h;
+        variance += w * w * var;
+        ++result.cells.total;
+        if (soil.support[k] > 0) {
+            result.state[k] = CellState::kMeasured;
+            ++result.cells.measured;
+        } else {
+            result.state[k] = CellState::kInterpolated;
+            ++result.cells.interpolated;
+        }
+        if (h > 2.0 * std::sqrt(soil.variance[k] + empty.variance[k])) ++result.cells.with_soil;
+    }
+    result.volume_m3 = std::max(0.0, result.raw_volume_m3);
+    result.uncertainty_m3 = std::sqrt(variance);
+    result.scan_noise_sigma_m = soil.noise_sigma_m;
+    result.model_noise_sigma_m = empty.noise_sigma_m;
+    result.window_cells = soil.window_cells;
+    return result;
+}
+
+}  // namespace soilvol::volume

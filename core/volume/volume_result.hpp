@@ -1,0 +1,39 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/volume/grid.hpp"
+
+namespace soilvol::volume {
+
+enum class Method {
+    kHeightmap,  ///< soilvol's estimator (default)
+    kPaper,      ///< paper Sec. 3.4, kept as a baseline
+};
+
+/// State of one grid cell in a result.
+enum class CellState : uint8_t { kOutside = 0, kMeasured = 1, kInterpolated = 2 };
+
+struct CellCounts {
+    int total = 0;         ///< cells with any area inside the opening
+    int measured = 0;      ///< cells whose soil surface was fitted from points
+    int interpolated = 0;  ///< holes filled from neighbouring cells
+    int with_soil = 0;     ///< cells whose soil height exceeds twice its own uncertainty
+};
+
+/// Soil volume over a grid, with the per-cell heightmap behind it.
+struct VolumeResult {
+    double volume_m3 = 0.0;       ///< max(0, raw_volume_m3)
+    double raw_volume_m3 = 0.0;   ///< signed sum of cell volumes, noise not clipped
+    double uncertainty_m3 = 0.0;  ///< 1-sigma from the per-cell statistics
+    Grid grid;
+    std::vector<double> soil_height_m;  ///< per cell, soil surface minus empty surface; NaN outside
+    std::vector<CellState> state;       ///< per cell
+    CellCounts cells;
+    double scan_noise_sigma_m = 0.0;   ///< robust noise along z in the scan's cells
+    double model_noise_sigma_m = 0.0;  ///< same for the empty model
+    int window_cells = 1;              ///< side of the fit window, in cells
+};
+
+}  // namespace soilvol::volume

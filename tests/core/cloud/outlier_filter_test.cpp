@@ -1,0 +1,90 @@
+#include "core/cloud/outlier_filter.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "core/cloud/preprocess.hpp"
+
+namespace soilvol::cloud {
+namespace {
+
+// A noisy 1 m x 1 m plane at 2.5 m plus isolated outliers spread through a 3 m cube.
+Cloud NoisyPlane(std::size_t n, std::size_t outliers, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+    std::normal_distribution<float> noise(0.0f, 0.01f);
+    Cloud cloud;
+    for (std::size_t i = 0; i < n; ++i) cloud.emplace_back(u(rng), u(rng), 2.5f + noise(rng));
+    std::uniform_real_distribution<float> far(-1.5f, 1.5f);
+    for (std::size_t i = 0; i < outliers; ++i) cloud.emplace_back(far(rng), far(rng), 2.5f + far(rng));
+    return cloud;
+}
+
+double BruteForceMean(const Cloud& cloud, std::size_t i, int k) {
+    std::vector<double> d;
+    for (std::size_t j = 0; j < cloud.size(); ++j) {
+        if (j != i) d.push_back(static_cast<double>((cloud[j] - cloud[i]).norm()));
+    }
+    std::partial_sort(d.begin(), d.begin() + k, d.end());
+    double sum = 0.0;
+    for (int j = 0; j < k; ++j) sum += d[static_cast<std::size_t>(j)];
+    return sum / k;
+}
+
+TEST(OutlierFilterTest, MeanNeighborDistancesAreExact) {
+    const Cloud cloud = NoisyPlane(3000, 60, 7);
+    for (const int k : {1, 8, 16}) {
+        const std::vector<float> mean = MeanNeighborDistances(cloud, k, 2);
+        for (std::size_t i = 0; i < cloud.size(); i += 37) {
+            EXPECT_NEAR(mean[i], BruteForceMean(cloud, i, k), 1e-5) << "point " << i << " k " << k;
+        }
+        // Every outlier is checked too (they take the k-d tree path).
+        for (std::size_t i = 3000; i < cloud.size(); ++i) {
+            EXPECT_NEAR(mean[i], BruteForceMean(cloud, i, k), 1e-5) << "outlier " << i;
+        }
+    }
+}
+
+TEST(OutlierFilterTest, IsolatedReturnsAreRemovedAndTheSurfaceKept) {
+    const Cloud cloud = NoisyPlane(20000, 200, 3);
+    const OutlierFilterResult result = RemoveStatisticalOutliers(cloud, OutlierFilterConfig{});
+    std::size_t outliers_left = 0;
+    for (const auto& p : result.kept) {
+        if (std::abs(p.z() - 2.5f) > 0.06f || std::abs(p.x()) > 0.5f || std::abs(p.y()) > 0.5f) {
+            ++outliers_left;
+        }
+    }
+    EXPECT_LE(outliers_left, 4u);  // outliers that happen to land on the plane stay
+    EXPECT_GE(result.kept.size(), 19000u);  // at most 5% of the surface goes
+}
+
+TEST(OutlierFilterTest, TinyCloudsPassThrough) {
+    const Cloud cloud = NoisyPlane(10, 0, 1);
+    EXPECT_EQ(RemoveStatisticalOutliers(cloud, OutlierFilterConfig{}).kept.size(), 10u);
+    EXPECT_TRUE(RemoveStatisticalOutliers(Cloud{}, OutlierFilterConfig{}).kept.empty());
+}
+
+TEST(OutlierFilterTest, DuplicatePointsDoNotBreakTheGrid) {
+    Cloud cloud(500, Eigen::Vector3f(1.0f, 2.0f, 3.0f));
+    const std::vector<float> mean = MeanNeighborDistances(cloud, 8, 1);
+    for (const float m : mean) EXPECT_EQ(m, 0.0f);
+}
+
+TEST(PreprocessTest, RangeCutDropsBackground) {
+    Cloud cloud = NoisyPlane(2000, 0, 5);
+    cloud.emplace_back(0.0f, 0.0f, 9.0f);
+    cloud.emplace_back(0.0f, 0.0f, 0.1f);
+    PreprocessConfig config;
+    config.max_range_m = 4.0;
+    config.min_range_m = 0.5;
+    config.remove_outliers = false;
+    const PreprocessResult result = Preprocess(cloud, config);
+    EXPECT_EQ(result.after_range, 2000u);
+    EXPECT_EQ(result.points.size(), 2000u);
+}
+
+}  // namespace
+}  // namespace soilvol::cloud
