@@ -2,13 +2,14 @@
 
 #include <omp.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-
-#include <Eigen/Dense>
+#include <vector>
 
 #include "absl/strings/str_format.h"
 #include "core/cloud/kd_tree.hpp"
+#include "core/cloud/local_surface.hpp"
 #include "core/cloud/voxel_grid.hpp"
 
 namespace soilvol::align {
@@ -24,7 +25,7 @@ struct System {
     std::size_t count = 0;
 };
 
-// The scan points near the model at its initial pose, voxel-averaged.
+// The scan points near the model at its initial pose, voxel-averaged and smoothed.
 Cloud PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
                     const AlignConfig& config) {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
@@ -39,7 +40,9 @@ Cloud PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
     for (const auto& p : scan) {
         if ((p - c).squaredNorm() <= r2) cropped.push_back(p);
     }
-    return cloud::VoxelDownsample(cropped, config.target_voxel_m);
+    const Cloud target = cloud::VoxelDownsample(cropped, config.target_voxel_m);
+    if (config.smoothing_radius_m <= 0.0) return target;
+    return cloud::SmoothLocalSurface(target, config.smoothing_radius_m).points;
 }
 
 // Point-to-plane normal equations at pose T: r = n'.(T p - q), left perturbation (w, t).
@@ -80,6 +83,15 @@ System Linearize(const Cloud& source, const Cloud& normals, const Pose& T, const
     return total;
 }
 
+// True when the pose moved less than the plateau bounds over the last plateau_iterations steps.
+bool Settled(const std::vector<Pose>& history, const AlignConfig& config) {
+    const auto k = static_cast<std::size_t>(std::max(config.plateau_iterations, 1));
+    if (history.size() <= k) return false;
+    const Pose delta = history[history.size() - 1 - k].inverse() * history.back();
+    return delta.translation().norm() < config.plateau_translation_m &&
+           Eigen::AngleAxisd(delta.linear()).angle() < config.plateau_rotation_rad;
+}
+
 Pose Exp(const Vector6d& xi) {
     Pose step = Pose::Identity();
     const double angle = xi.head<3>().norm();
@@ -110,6 +122,7 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
     for (std::size_t s = 0; s < stages.size(); ++s) {
         const bool fine = s + 1 == stages.size();
         bool stage_converged = false;
+        std::vector<Pose> history;
         while (result.iterations < config.max_iterations && !stage_converged) {
             const System sys = Linearize(source, normals, T, target, tree, stages[s],
                                          config.ransac_outlier_rejection_m, threads);
@@ -118,8 +131,10 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
             const Vector6d xi = H.ldlt().solve(-sys.g);
             T = Exp(xi) * T;
             ++result.iterations;
+            history.push_back(T);
             stage_converged = std::max(xi.head<3>().squaredNorm(), xi.tail<3>().squaredNorm()) <
-                              config.transformation_epsilon;
+                                  config.transformation_epsilon ||
+                              Settled(history, config);
         }
         if (fine) result.converged = stage_converged;
     }
@@ -135,8 +150,8 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
         const Eigen::Vector3d nc = T.linear().col(2);
         Vector6d grad;
         grad << o.cross(nc), nc;
-        const Matrix6d cov = result.rmse_m * result.rmse_m *
-                             (sys.H + 1e-9 * Matrix6d::Identity()).inverse();
+        const Matrix6d cov =
+            result.rmse_m * result.rmse_m * (sys.H + 1e-9 * Matrix6d::Identity()).inverse();
         result.z_sigma_m = std::sqrt(std::max(0.0, grad.dot(cov * grad)));
     }
     return result;

@@ -14,12 +14,22 @@ struct AlignConfig {
     double max_correspondence_m = 0.05;       ///< paper: 0.05 m
     double ransac_outlier_rejection_m = 1.0;  ///< paper: 1; residuals above it are rejected
     double transformation_epsilon = 1e-8;     ///< paper: 1e-8; squared step [m^2, rad^2] to stop
+    /// Nearest-neighbour correspondences can make the last steps cycle instead of shrinking: the
+    /// fit has also converged when the pose moved less than these over the last
+    /// `plateau_iterations` iterations.
+    double plateau_translation_m = 1e-3;
+    double plateau_rotation_rad = 1e-3;
+    int plateau_iterations = 4;
     /// A first stage at this correspondence distance catches pose changes larger than the
     /// paper's 5 cm before the fine stage; 0 = paper only.
     double coarse_max_correspondence_m = 0.20;
-    double target_voxel_m = 0.02;  ///< scan voxel averaging for correspondences; 0 = off
-    double crop_margin_m = 0.30;   ///< scan cropped to the model's extent plus this margin
-    int num_threads = 0;           ///< 0 = all cores
+    /// The scan is voxel-averaged and smoothed exactly as the model's alignment set was
+    /// (ModelConfig), so that noise blurs both alike: nearest-neighbour correspondences on a raw
+    /// noisy scan follow the noise and leave the pose biased.
+    double target_voxel_m = 0.02;
+    double smoothing_radius_m = 0.08;  ///< 0 = off
+    double crop_margin_m = 0.30;       ///< scan cropped to the model's extent plus this margin
+    int num_threads = 0;               ///< 0 = all cores
 };
 
 /// Refuses a volume from a bad alignment.

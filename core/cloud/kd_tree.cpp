@@ -9,7 +9,9 @@ namespace {
 struct CloudAdaptor {
     const Cloud& points;
     std::size_t kdtree_get_point_count() const { return points.size(); }
-    float kdtree_get_pt(std::size_t i, std::size_t d) const { return points[i][static_cast<int>(d)]; }
+    float kdtree_get_pt(std::size_t i, std::size_t d) const {
+        return points[i][static_cast<int>(d)];
+    }
     template <class Box>
     bool kdtree_get_bbox(Box&) const {
         return false;

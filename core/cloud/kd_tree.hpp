@@ -12,7 +12,7 @@ namespace soilvol::cloud {
 /// Exact nearest-neighbour queries over a cloud (nanoflann k-d tree). The cloud must outlive
 /// the tree. Queries are thread-safe.
 class KdTree {
-public:
+  public:
     explicit KdTree(const Cloud& points);
     ~KdTree();
     KdTree(const KdTree&) = delete;
@@ -23,9 +23,10 @@ public:
     /// Up to `k` nearest as (index, squared distance), nearest first.
     std::vector<std::pair<uint32_t, float>> Knn(const Eigen::Vector3f& query, std::size_t k) const;
     /// All points within `radius_m` as (index, squared distance), unsorted.
-    std::vector<std::pair<uint32_t, float>> Radius(const Eigen::Vector3f& query, double radius_m) const;
+    std::vector<std::pair<uint32_t, float>> Radius(const Eigen::Vector3f& query,
+                                                   double radius_m) const;
 
-private:
+  private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

@@ -120,7 +120,8 @@ OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
         result.kept = points;
         return result;
     }
-    const std::vector<float> mean = MeanNeighborDistances(points, config.mean_k, config.num_threads);
+    const std::vector<float> mean =
+        MeanNeighborDistances(points, config.mean_k, config.num_threads);
     const double n = static_cast<double>(points.size());
     const double sum = std::accumulate(mean.begin(), mean.end(), 0.0);
     const double mu = sum / n;

@@ -29,6 +29,7 @@ struct OutlierFilterResult {
 std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_threads = 0);
 
 /// Removes statistical outliers. Clouds with no more than `mean_k` points are returned as-is.
-OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points, const OutlierFilterConfig& config);
+OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
+                                              const OutlierFilterConfig& config);
 
 }  // namespace soilvol::cloud

@@ -35,7 +35,8 @@ PreprocessResult Preprocess(const Cloud& points, const PreprocessConfig& config)
     }
     result.after_outliers = result.points.size();
     result.outliers_ms = timer.Lap();
-    if (config.voxel_size_m > 0.0) result.points = VoxelDownsample(result.points, config.voxel_size_m);
+    if (config.voxel_size_m > 0.0)
+        result.points = VoxelDownsample(result.points, config.voxel_size_m);
     result.voxel_ms = timer.Lap();
     return result;
 }

@@ -11,7 +11,8 @@ namespace soilvol::cloud {
 /// voxel downsampling last.
 struct PreprocessConfig {
     double max_range_m = 0.0;  ///< points farther than this from the sensor are background; 0 = off
-    double min_range_m = 0.0;  ///< points nearer than this are dropped (sensor housing, dust); 0 = off
+    double min_range_m =
+        0.0;  ///< points nearer than this are dropped (sensor housing, dust); 0 = off
     bool remove_outliers = true;
     OutlierFilterConfig outliers;
     double voxel_size_m = 0.0;  ///< centroid per voxel; 0 = off

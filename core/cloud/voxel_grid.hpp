@@ -11,7 +11,7 @@ namespace soilvol::cloud {
 /// Points bucketed into cubic voxels of `voxel_size_m`, sorted by voxel so that each voxel is
 /// one contiguous range of `Order()`. Lookups are by integer voxel coordinates.
 class VoxelGrid {
-public:
+  public:
     /// Buckets `points` (kept by reference; must outlive the grid). `voxel_size_m` > 0.
     VoxelGrid(const Cloud& points, double voxel_size_m);
 
@@ -31,7 +31,7 @@ public:
     /// Integer coordinates of the voxel holding `p`.
     Eigen::Vector3i CoordOf(const Eigen::Vector3f& p) const;
 
-private:
+  private:
     const Cloud& points_;
     double voxel_size_m_;
     Eigen::Vector3d origin_;

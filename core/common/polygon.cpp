@@ -8,9 +8,12 @@
 namespace soilvol {
 namespace {
 
-double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return a.x() * b.y() - a.y() * b.x();
+}
 
-double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                       const Eigen::Vector2d& b) {
     const Eigen::Vector2d ab = b - a;
     const double len2 = ab.squaredNorm();
     const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
@@ -98,7 +101,8 @@ std::pair<double, Eigen::Vector2d> Polygon2d::Clip(const Eigen::Vector2d& lo,
 double Polygon2d::DistanceToBoundary(const Eigen::Vector2d& p) const {
     double best = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < vertices_.size(); ++i) {
-        best = std::min(best, SegmentDistance(p, vertices_[i], vertices_[(i + 1) % vertices_.size()]));
+        best =
+            std::min(best, SegmentDistance(p, vertices_[i], vertices_[(i + 1) % vertices_.size()]));
     }
     return best;
 }
@@ -135,7 +139,8 @@ double Polygon2d::DistanceIntegral(int samples_per_axis) const {
     double sum = 0.0;
     for (int i = 0; i < samples_per_axis; ++i) {
         for (int j = 0; j < samples_per_axis; ++j) {
-            const Eigen::Vector2d p = lo + Eigen::Vector2d((i + 0.5) * step.x(), (j + 0.5) * step.y());
+            const Eigen::Vector2d p =
+                lo + Eigen::Vector2d((i + 0.5) * step.x(), (j + 0.5) * step.y());
             if (Contains(p)) sum += DistanceToBoundary(p);
         }
     }

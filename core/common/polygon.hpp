@@ -1,15 +1,14 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace soilvol {
 
 /// A simple polygon in the plane [m], stored counter-clockwise.
 class Polygon2d {
-public:
+  public:
     Polygon2d() = default;
     /// Takes the vertices in either orientation; stores them counter-clockwise.
     explicit Polygon2d(std::vector<Eigen::Vector2d> vertices);
@@ -23,7 +22,8 @@ public:
     double ClippedArea(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) const;
     /// Area [m^2] and centroid of the intersection with the rectangle [lo, hi]; the centroid is
     /// the rectangle's centre when the intersection is empty.
-    std::pair<double, Eigen::Vector2d> Clip(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) const;
+    std::pair<double, Eigen::Vector2d> Clip(const Eigen::Vector2d& lo,
+                                            const Eigen::Vector2d& hi) const;
     /// Distance [m] from `p` to the nearest edge.
     double DistanceToBoundary(const Eigen::Vector2d& p) const;
     /// Axis-aligned bounding box.
@@ -34,7 +34,7 @@ public:
     /// Integral over the polygon of the distance to the boundary [m^3] (heap volume at slope 1).
     double DistanceIntegral(int samples_per_axis = 600) const;
 
-private:
+  private:
     std::vector<Eigen::Vector2d> vertices_;
 };
 

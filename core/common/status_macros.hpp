@@ -4,9 +4,9 @@
 #include "absl/status/statusor.h"
 
 /// Returns the status from the enclosing function when `expr` is not OK.
-#define SOILVOL_RETURN_IF_ERROR(expr)                \
-    do {                                             \
-        const ::absl::Status soilvol_status_ = (expr); \
+#define SOILVOL_RETURN_IF_ERROR(expr)                      \
+    do {                                                   \
+        const ::absl::Status soilvol_status_ = (expr);     \
         if (!soilvol_status_.ok()) return soilvol_status_; \
     } while (false)
 

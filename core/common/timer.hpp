@@ -6,7 +6,7 @@ namespace soilvol {
 
 /// Wall-clock stopwatch for per-stage timings [ms].
 class Timer {
-public:
+  public:
     Timer() : start_(std::chrono::steady_clock::now()) {}
     /// Milliseconds since construction or the last Lap(), and restarts.
     double Lap() {
@@ -16,7 +16,7 @@ public:
         return ms;
     }
 
-private:
+  private:
     std::chrono::steady_clock::time_point start_;
 };
 

@@ -13,7 +13,7 @@ enum class CloudFormat { kPly, kPcd, kRawXyzF32 };
 
 /// A cloud decoded from untrusted bytes.
 struct DecodedCloud {
-    Cloud points;                    ///< finite points only [m]
+    Cloud points;                       ///< finite points only [m]
     std::size_t dropped_nonfinite = 0;  ///< points with a NaN/Inf coordinate, dropped
     CloudFormat format = CloudFormat::kPly;
 };
@@ -31,7 +31,8 @@ enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
 /// Encodes `points` as a PLY file with float x/y/z vertices.
 std::string EncodePly(const Cloud& points, PlyEncoding encoding = PlyEncoding::kBinaryLittleEndian);
 
-/// Encodes `points` as a PCD v0.7 file with float x/y/z fields.
+/// Encodes `points` as a PCD v0.7 file with float x/y/z fields. binary_compressed stores 32-bit
+/// sizes, so a cloud of more than ~335 million points is written as binary instead.
 std::string EncodePcd(const Cloud& points, PcdEncoding encoding = PcdEncoding::kBinary);
 
 /// Encodes `points` as raw little-endian float32 xyz triplets.

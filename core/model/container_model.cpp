@@ -1,13 +1,12 @@
 #include "core/model/container_model.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Dense>
-
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
-#include "core/cloud/kd_tree.hpp"
+#include "core/cloud/local_surface.hpp"
 #include "core/cloud/voxel_grid.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/volume/surface_estimator.hpp"
@@ -42,29 +41,44 @@ Cloud AlignmentCandidates(const Cloud& outside, const Opening& opening, double b
     return kept;
 }
 
-// PCA normals of `targets` from the neighbours in `points` within `radius_m`.
-Cloud EstimateNormals(const Cloud& targets, const Cloud& points, double radius_m) {
-    const cloud::KdTree tree(points);
-    Cloud normals(targets.size(), Eigen::Vector3f::UnitZ());
-    for (std::size_t i = 0; i < targets.size(); ++i) {
-        const auto found = tree.Radius(targets[i], radius_m);
-        if (found.size() < 3) continue;
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (const auto& f : found) mean += points[f.first].cast<double>();
-        mean /= static_cast<double>(found.size());
-        Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-        for (const auto& f : found) {
-            const Eigen::Vector3d d = points[f.first].cast<double>() - mean;
-            cov += d * d.transpose();
-        }
-        normals[i] = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0).cast<float>();
+// Walls seen inside the opening's column (steep local surfaces) plus everything outside it.
+Cloud StructurePoints(const Cloud& inside, const Cloud& outside, const ModelConfig& config,
+                      double radius_m) {
+    const cloud::LocalSurface local = cloud::SmoothLocalSurface(
+        cloud::VoxelDownsample(inside, config.smoothing_voxel_m), radius_m);
+    const auto max_nz =
+        static_cast<float>(std::cos(config.wall_min_slope_deg * 3.14159265358979 / 180.0));
+    Cloud structure = cloud::VoxelDownsample(outside, config.smoothing_voxel_m);
+    for (std::size_t i = 0; i < local.points.size(); ++i) {
+        if (std::abs(local.normals[i].z()) < max_nz) structure.push_back(local.points[i]);
     }
-    return normals;
+    return structure;
+}
+
+// Columns near structure between the lowest inner point and the highest heap; what lies below
+// the container (its underside, the ground) does not mask the column above it.
+StructureMask MakeMask(const Cloud& structure, const Opening& opening, double radius_m,
+                       double depth_m, double max_heap_slope) {
+    const Eigen::Vector2d margin(radius_m, radius_m);
+    const double top =
+        max_heap_slope * 0.5 * (opening.polygon.Max() - opening.polygon.Min()).minCoeff();
+    return StructureMask(structure, radius_m, opening.polygon.Min() - margin,
+                         opening.polygon.Max() + margin, -depth_m - radius_m, top + radius_m);
+}
+
+double LowestZ(const Cloud& points) {
+    std::vector<float> z;
+    for (const auto& p : points) z.push_back(p.z());
+    const auto k = static_cast<long>(0.002 * static_cast<double>(z.size()));
+    std::nth_element(z.begin(), z.begin() + k, z.end());
+    return static_cast<double>(z[static_cast<std::size_t>(k)]);
 }
 
 }  // namespace
 
-double HeapVolume(const Polygon2d& opening, double slope) { return slope * opening.DistanceIntegral(); }
+double HeapVolume(const Polygon2d& opening, double slope) {
+    return slope * opening.DistanceIntegral();
+}
 
 absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
                                                    const ModelConfig& config) {
@@ -81,22 +95,44 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
             "only ", model.inside.size(), " points of the empty scan lie inside the opening (need ",
             config.min_inside_points, "): check the corners and that the inside is visible"));
     }
+    // Smoothed as the pipeline smooths each scan before ICP (AlignConfig), then thinned.
     const Cloud candidates = AlignmentCandidates(outside, model.opening, config.wall_band_m);
-    model.alignment_points = cloud::VoxelDownsample(candidates, config.alignment_voxel_m);
+    const cloud::LocalSurface surface = cloud::SmoothLocalSurface(
+        cloud::VoxelDownsample(candidates, config.smoothing_voxel_m), config.smoothing_radius_m);
+    const cloud::VoxelGrid thin(surface.points, config.alignment_voxel_m);
+    for (std::size_t v = 0; v < thin.NumVoxels(); ++v) {
+        const uint32_t i = thin.Order()[thin.Range(v).first];
+        model.alignment_points.push_back(surface.points[i]);
+        model.alignment_normals.push_back(surface.normals[i]);
+    }
     if (model.alignment_points.size() < config.min_alignment_points) {
         return absl::FailedPreconditionError(absl::StrCat(
             "only ", model.alignment_points.size(), " alignment points outside the opening (need ",
             config.min_alignment_points, "): the container's outside must be visible to align it"));
     }
-    model.alignment_normals = EstimateNormals(model.alignment_points, candidates, config.normal_radius_m);
     // Sec. 3.2: the empty surface; struck capacity is the volume between it and the opening.
     const double cell_m = config.heightmap.cell_m > 0.0
                               ? config.heightmap.cell_m
-                              : volume::AutomaticCellSize(model.inside.size(), model.opening.polygon,
-                                                          config.heightmap);
+                              : volume::AutomaticCellSize(model.inside.size(),
+                                                          model.opening.polygon, config.heightmap);
     const volume::Grid grid = volume::MakeGrid(model.opening.polygon, cell_m);
-    SOILVOL_ASSIGN_OR_RETURN(const volume::SurfaceMap empty,
+    SOILVOL_ASSIGN_OR_RETURN(const volume::SurfaceMap rough,
                              volume::EstimateSurface(grid, model.inside, config.heightmap.surface));
+    const double radius = std::clamp(config.structure_sigmas * rough.noise_sigma_m,
+                                     config.min_structure_radius_m, config.max_structure_radius_m);
+    model.structure =
+        StructurePoints(model.inside, outside, config, std::max(radius, config.smoothing_radius_m));
+    model.mask = MakeMask(model.structure, model.opening, radius, -LowestZ(model.inside),
+                          config.heightmap.max_heap_slope);
+    model.floor = model.mask.Filter(model.inside);
+    if (model.floor.size() < config.min_inside_points) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("only ", model.floor.size(),
+                         " points of the empty scan lie on its floor clear of the walls (need ",
+                         config.min_inside_points, "): the floor must be visible"));
+    }
+    SOILVOL_ASSIGN_OR_RETURN(const volume::SurfaceMap empty,
+                             volume::EstimateSurface(grid, model.floor, config.heightmap.surface));
     double lowest = 0.0;
     for (std::size_t k = 0; k < grid.weight.size(); ++k) {
         if (grid.weight[k] <= 0.0) continue;
@@ -105,8 +141,10 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
     }
     model.depth_m = -lowest;
     model.noise_sigma_m = empty.noise_sigma_m;
-    model.heaped_capacity_sae_m3 = model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 1.0);
-    model.heaped_capacity_iso_m3 = model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 0.5);
+    model.heaped_capacity_sae_m3 =
+        model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 1.0);
+    model.heaped_capacity_iso_m3 =
+        model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 0.5);
     return model;
 }
 

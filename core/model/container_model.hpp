@@ -6,6 +6,7 @@
 #include "core/cloud/preprocess.hpp"
 #include "core/common/types.hpp"
 #include "core/model/opening.hpp"
+#include "core/model/structure_mask.hpp"
 #include "core/volume/heightmap_volume.hpp"
 
 namespace soilvol::model {
@@ -18,8 +19,17 @@ struct ModelConfig {
     /// Alignment set: outside points, minus a band this wide around the opening below the rim
     /// (the inner walls that soil will cover), voxel-averaged at `alignment_voxel_m`.
     double wall_band_m = 0.05;
-    double alignment_voxel_m = 0.03;
-    double normal_radius_m = 0.10;  ///< neighbourhood of the alignment normals
+    double alignment_voxel_m = 0.03;  ///< one alignment point per voxel of this size
+    /// Smoothing of the alignment set; must match AlignConfig's target_voxel_m and
+    /// smoothing_radius_m, which treat each scan the same way.
+    double smoothing_voxel_m = 0.02;
+    double smoothing_radius_m = 0.08;
+    /// Inside points on surfaces steeper than this from horizontal are walls, not floor.
+    double wall_min_slope_deg = 60.0;
+    /// The structure mask reaches this many noise sigmas from the container's walls and rim.
+    double structure_sigmas = 2.5;
+    double min_structure_radius_m = 0.02;
+    double max_structure_radius_m = 0.15;
     std::size_t min_inside_points = 30;
     std::size_t min_alignment_points = 50;
     volume::HeightmapConfig heightmap;  ///< used for the empty surface and the capacities
@@ -29,9 +39,12 @@ struct ModelConfig {
 /// Clouds are in the container frame of `opening`.
 struct ContainerModel {
     Opening opening;  ///< T_scan_container: the container in the empty scan's frame
-    Cloud inside;     ///< empty points over the opening (volume reference)
-    Cloud alignment_points;   ///< outside points used for ICP
-    Cloud alignment_normals;  ///< unit normals of alignment_points
+    Cloud inside;     ///< empty points over the opening
+    Cloud floor;      ///< inside points clear of the structure mask: the empty surface
+    Cloud structure;  ///< walls, rim and outside, voxel-thinned: what the mask is built from
+    StructureMask mask;
+    Cloud alignment_points;               ///< outside points used for ICP
+    Cloud alignment_normals;              ///< unit normals of alignment_points
     double depth_m = 0.0;                 ///< opening plane to the lowest empty-surface cell
     double struck_capacity_m3 = 0.0;      ///< empty surface to the opening plane
     double heaped_capacity_sae_m3 = 0.0;  ///< struck + 1:1 heap (SAE J296)

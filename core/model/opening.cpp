@@ -1,10 +1,9 @@
 #include "core/model/opening.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <vector>
-
-#include <Eigen/Dense>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -20,7 +19,9 @@ absl::Status CheckCorners(const Corners& corners, const OpeningConfig& config) {
         }
     }
     for (int i = 0; i < 4; ++i) {
-        const double edge = (corners[static_cast<std::size_t>((i + 1) % 4)] - corners[static_cast<std::size_t>(i)]).norm();
+        const double edge =
+            (corners[static_cast<std::size_t>((i + 1) % 4)] - corners[static_cast<std::size_t>(i)])
+                .norm();
         if (edge < config.min_edge_m) {
             return absl::InvalidArgumentError(absl::StrFormat(
                 "opening corners %d and %d are %.3f m apart (minimum %.3f m): coincident corners",
@@ -66,8 +67,9 @@ absl::Status CheckShape(const std::vector<Eigen::Vector2d>& poly, double shortes
         const Eigen::Vector2d u = prev - cur, v = next - cur;
         const double tri = 0.5 * std::abs(u.x() * v.y() - u.y() * v.x());
         if (tri < config.min_corner_area_ratio * area) {
-            return absl::InvalidArgumentError(absl::StrCat(
-                "opening corner ", i, " lies on the line through its neighbours (collinear corners)"));
+            return absl::InvalidArgumentError(
+                absl::StrCat("opening corner ", i,
+                             " lies on the line through its neighbours (collinear corners)"));
         }
     }
     return absl::OkStatus();
@@ -89,7 +91,9 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners, const Cloud& empty_s
     if (auto status = CheckCorners(corners, config); !status.ok()) return status;
     double shortest = 1e300;
     for (int i = 0; i < 4; ++i) {
-        shortest = std::min(shortest, (corners[static_cast<std::size_t>((i + 1) % 4)] - corners[static_cast<std::size_t>(i)]).norm());
+        shortest = std::min(shortest, (corners[static_cast<std::size_t>((i + 1) % 4)] -
+                                       corners[static_cast<std::size_t>(i)])
+                                          .norm());
     }
     const CornerPlane plane = FitPlane(corners);
     if (plane.eigenvalues(1) < 1e-6 * plane.eigenvalues(2)) {
@@ -99,7 +103,8 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners, const Cloud& empty_s
     const Eigen::Vector3d& centroid = plane.centroid;
     Opening opening;
     for (const auto& c : corners) {
-        opening.nonplanarity_m = std::max(opening.nonplanarity_m, std::abs((c - centroid).dot(normal)));
+        opening.nonplanarity_m =
+            std::max(opening.nonplanarity_m, std::abs((c - centroid).dot(normal)));
     }
     if (opening.nonplanarity_m > config.max_nonplanarity * shortest) {
         return absl::InvalidArgumentError(absl::StrFormat(
@@ -127,7 +132,8 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners, const Cloud& empty_s
     if (depth.empty()) {
         return absl::InvalidArgumentError("no point of the empty scan lies over the opening");
     }
-    std::nth_element(depth.begin(), depth.begin() + static_cast<long>(depth.size() / 2), depth.end());
+    std::nth_element(depth.begin(), depth.begin() + static_cast<long>(depth.size() / 2),
+                     depth.end());
     if (depth[depth.size() / 2] > 0.0) {
         R.col(1) = -R.col(1);
         R.col(2) = -R.col(2);
@@ -139,7 +145,8 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners, const Cloud& empty_s
     const auto& v = oriented.Vertices();
     double twice = 0.0;
     for (std::size_t i = 0; i < v.size(); ++i) {
-        const double cross = v[i].x() * v[(i + 1) % v.size()].y() - v[(i + 1) % v.size()].x() * v[i].y();
+        const double cross =
+            v[i].x() * v[(i + 1) % v.size()].y() - v[(i + 1) % v.size()].x() * v[i].y();
         area_centroid += (v[i] + v[(i + 1) % v.size()]) * cross;
         twice += cross;
     }

@@ -7,8 +7,8 @@
 namespace soilvol::model {
 
 struct OpeningConfig {
-    double min_edge_m = 0.05;           ///< shorter opening edges are a marking mistake
-    double max_nonplanarity = 0.15;     ///< corner offset from their plane / shortest edge
+    double min_edge_m = 0.05;             ///< shorter opening edges are a marking mistake
+    double max_nonplanarity = 0.15;       ///< corner offset from their plane / shortest edge
     double min_corner_area_ratio = 0.02;  ///< each corner triangle vs the opening area
 };
 

@@ -11,14 +11,16 @@ namespace soilvol::pipeline {
 namespace {
 
 absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& model,
-                                               const Cloud& aligned,
-                                               const EstimateConfig& config) {
+                                               const Cloud& aligned, const EstimateConfig& config) {
     const Polygon2d& opening = model.opening.polygon;
     if (config.method == volume::Method::kPaper) {
-        const Cloud column = volume::SelectColumn(aligned, opening, -model.depth_m, config.heightmap);
+        const Cloud column =
+            volume::SelectColumn(aligned, opening, -model.depth_m, config.heightmap);
         return volume::PaperVolume(model.inside, column, opening, config.paper);
     }
-    return volume::HeightmapVolume(model.inside, aligned, opening, config.heightmap);
+    // Returns of the container's own walls and rim are not contents.
+    return volume::HeightmapVolume(model.floor, model.mask.Filter(aligned), opening,
+                                   config.heightmap);
 }
 
 }  // namespace

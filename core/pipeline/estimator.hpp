@@ -36,10 +36,10 @@ struct StageTimings {
 
 struct VolumeEstimate {
     double volume_m3 = 0.0;
-    double uncertainty_m3 = 0.0;      ///< 1-sigma: per-cell statistics and alignment
-    double fill_ratio_struck = 0.0;   ///< volume / struck capacity
-    double fill_ratio_heaped = 0.0;   ///< volume / heaped capacity (SAE J296)
-    volume::VolumeResult volume;      ///< grid, per-cell heights and counts
+    double uncertainty_m3 = 0.0;     ///< 1-sigma: per-cell statistics and alignment
+    double fill_ratio_struck = 0.0;  ///< volume / struck capacity
+    double fill_ratio_heaped = 0.0;  ///< volume / heaped capacity (SAE J296)
+    volume::VolumeResult volume;     ///< grid, per-cell heights and counts
     align::AlignResult alignment;
     StageTimings timings;
     std::size_t input_points = 0;

@@ -23,9 +23,11 @@ Grid MakeGrid(const Polygon2d& opening, double cell_m) {
     grid.weight.resize(static_cast<std::size_t>(grid.NumCells()));
     grid.anchor.resize(static_cast<std::size_t>(grid.NumCells()));
     for (int i = 0; i < grid.NumCells(); ++i) {
-        const Eigen::Vector2d lo = grid.origin + cell_m * Eigen::Vector2d(i % grid.cols, i / grid.cols);
+        const Eigen::Vector2d lo =
+            grid.origin + cell_m * Eigen::Vector2d(i % grid.cols, i / grid.cols);
         const auto k = static_cast<std::size_t>(i);
-        std::tie(grid.weight[k], grid.anchor[k]) = opening.Clip(lo, lo + Eigen::Vector2d(cell_m, cell_m));
+        std::tie(grid.weight[k], grid.anchor[k]) =
+            opening.Clip(lo, lo + Eigen::Vector2d(cell_m, cell_m));
     }
     return grid;
 }

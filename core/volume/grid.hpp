@@ -1,8 +1,7 @@
 #pragma once
 
-#include <vector>
-
 #include <Eigen/Core>
+#include <vector>
 
 #include "core/common/polygon.hpp"
 
@@ -15,7 +14,7 @@ struct Grid {
     double cell_m = 0.0;
     int cols = 0;
     int rows = 0;
-    std::vector<double> weight;  ///< area [m^2] of each cell inside the opening
+    std::vector<double> weight;           ///< area [m^2] of each cell inside the opening
     std::vector<Eigen::Vector2d> anchor;  ///< centroid of each cell's part inside the opening
 
     int NumCells() const { return cols * rows; }
@@ -45,14 +44,17 @@ CellBins BinPoints(const Grid& grid, const std::vector<PointT>& points) {
     std::vector<int> cell(points.size(), -1);
     bins.start.assign(static_cast<std::size_t>(grid.NumCells()) + 1, 0);
     for (std::size_t i = 0; i < points.size(); ++i) {
-        cell[i] = grid.CellOf(static_cast<double>(points[i].x()), static_cast<double>(points[i].y()));
+        cell[i] =
+            grid.CellOf(static_cast<double>(points[i].x()), static_cast<double>(points[i].y()));
         if (cell[i] >= 0) ++bins.start[static_cast<std::size_t>(cell[i]) + 1];
     }
     for (std::size_t c = 1; c < bins.start.size(); ++c) bins.start[c] += bins.start[c - 1];
     bins.index.resize(static_cast<std::size_t>(bins.start.back()));
     std::vector<int> fill(bins.start.begin(), bins.start.end() - 1);
     for (std::size_t i = 0; i < points.size(); ++i) {
-        if (cell[i] >= 0) bins.index[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell[i])]++)] = static_cast<int>(i);
+        if (cell[i] >= 0)
+            bins.index[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell[i])]++)] =
+                static_cast<int>(i);
     }
     return bins;
 }

@@ -27,8 +27,8 @@ double MaxInradius(const Polygon2d& opening) {
     constexpr int kSamples = 64;
     for (int i = 0; i < kSamples; ++i) {
         for (int j = 0; j < kSamples; ++j) {
-            const Eigen::Vector2d p =
-                lo + (hi - lo).cwiseProduct(Eigen::Vector2d((i + 0.5) / kSamples, (j + 0.5) / kSamples));
+            const Eigen::Vector2d p = lo + (hi - lo).cwiseProduct(Eigen::Vector2d(
+                                               (i + 0.5) / kSamples, (j + 0.5) / kSamples));
             if (opening.Contains(p)) best = std::max(best, opening.DistanceToBoundary(p));
         }
     }
@@ -43,15 +43,26 @@ std::size_t CountInside(const Cloud& points, const Polygon2d& opening) {
     return n;
 }
 
+// A hole next to the rim cannot hold soil above the steepest heap rising from the rim.
+void CapInterpolatedHeap(const Grid& grid, const Polygon2d& opening, double slope,
+                         SurfaceMap& soil) {
+    for (std::size_t k = 0; k < soil.height.size(); ++k) {
+        if (grid.weight[k] <= 0.0 || soil.support[k] > 0) continue;
+        const double cap = slope * opening.DistanceToBoundary(grid.anchor[k]);
+        soil.height[k] = std::min(soil.height[k], cap);
+    }
+}
+
 }  // namespace
 
 double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening,
                          const HeightmapConfig& config) {
     const Eigen::Vector2d extent = opening.Max() - opening.Min();
-    const double max_cell = std::max(config.min_cell_m, config.max_cell_fraction * extent.minCoeff());
+    const double max_cell =
+        std::max(config.min_cell_m, config.max_cell_fraction * extent.minCoeff());
     if (points_in_opening == 0) return max_cell;
-    const double cell =
-        std::sqrt(config.target_points_per_cell * opening.Area() / static_cast<double>(points_in_opening));
+    const double cell = std::sqrt(config.target_points_per_cell * opening.Area() /
+                                  static_cast<double>(points_in_opening));
     return std::clamp(cell, config.min_cell_m, max_cell);
 }
 
@@ -81,8 +92,10 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const Cloud& empty_inside, const Cl
     VolumeResult result;
     result.grid = MakeGrid(opening, cell_m);
     const Grid& grid = result.grid;
-    SOILVOL_ASSIGN_OR_RETURN(const SurfaceMap empty, EstimateSurface(grid, empty_inside, config.surface));
-    SOILVOL_ASSIGN_OR_RETURN(const SurfaceMap soil, EstimateSurface(grid, column, config.surface));
+    SOILVOL_ASSIGN_OR_RETURN(const SurfaceMap empty,
+                             EstimateSurface(grid, empty_inside, config.surface));
+    SOILVOL_ASSIGN_OR_RETURN(SurfaceMap soil, EstimateSurface(grid, column, config.surface));
+    CapInterpolatedHeap(grid, opening, config.max_heap_slope, soil);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     result.soil_height_m.assign(num_cells, kNaN);
     result.state.assign(num_cells, CellState::kOutside);

@@ -66,8 +66,9 @@ std::optional<CellPlane> FitCell(const Cloud& points, const std::vector<int>& me
     if (plane.coefficients(2) < 0.0) plane.coefficients = -plane.coefficients;
     std::vector<Eigen::Vector3d> projected;
     for (const int i : inliers) {
-        projected.push_back(
-            ProjectOntoPlane(plane.coefficients, (*cloud)[static_cast<std::size_t>(i)].getVector3fMap().cast<double>()));
+        projected.push_back(ProjectOntoPlane(
+            plane.coefficients,
+            (*cloud)[static_cast<std::size_t>(i)].getVector3fMap().cast<double>()));
     }
     plane.median = ComponentMedian(std::move(projected));
     plane.fitted = true;
@@ -101,9 +102,8 @@ void FillHoles(const Grid& grid, std::vector<CellPlane>& planes) {
         hole.coefficients /= hole.coefficients.head<3>().norm();
         const Eigen::Vector2d centre = grid.Center(cell);
         const Eigen::Vector4d& p = hole.coefficients;
-        const double z = std::abs(p(2)) > 1e-6
-                             ? -(p(0) * centre.x() + p(1) * centre.y() + p(3)) / p(2)
-                             : 0.0;
+        const double z =
+            std::abs(p(2)) > 1e-6 ? -(p(0) * centre.x() + p(1) * centre.y() + p(3)) / p(2) : 0.0;
         hole.median = Eigen::Vector3d(centre.x(), centre.y(), z);
     }
 }

@@ -12,7 +12,7 @@ struct PaperConfig {
     double cell_m = 0.10;              ///< Table 1 uses 10 cm
     double ransac_threshold_m = 0.02;  ///< per-cell plane RANSAC inlier distance (not in the paper)
     int ransac_iterations = 100;
-    int min_points = 3;                ///< fewer points make a cell a hole
+    int min_points = 3;  ///< fewer points make a cell a hole
 };
 
 /// Per cell of a ceil(L/c) x ceil(W/c) grid over the opening's bounding box (whole cells, as the

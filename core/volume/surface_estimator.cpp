@@ -2,12 +2,11 @@
 
 #include <omp.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
-
-#include <Eigen/Dense>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -139,9 +138,11 @@ std::vector<Sample> GatherWindow(const Grid& grid, const CellBins& bins, const C
         for (int c = std::max(0, col - half); c <= std::min(grid.cols - 1, col + half); ++c) {
             const auto k = static_cast<std::size_t>(r * grid.cols + c);
             for (int i = bins.start[k]; i < bins.start[k + 1]; ++i) {
-                const Eigen::Vector3f& p = points[static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)])];
+                const Eigen::Vector3f& p =
+                    points[static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)])];
                 samples.push_back({static_cast<double>(p.x()) - centre.x(),
-                                   static_cast<double>(p.y()) - centre.y(), static_cast<double>(p.z())});
+                                   static_cast<double>(p.y()) - centre.y(),
+                                   static_cast<double>(p.z())});
             }
         }
     }
@@ -251,9 +252,9 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
         if (map.support[k] > 0) ++map.measured;
     }
     if (map.measured == 0) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            "no grid cell has enough points to fit a surface (", points.size(),
-            " points over ", grid.NumCells(), " cells of ", grid.cell_m, " m)"));
+        return absl::FailedPreconditionError(
+            absl::StrCat("no grid cell has enough points to fit a surface (", points.size(),
+                         " points over ", grid.NumCells(), " cells of ", grid.cell_m, " m)"));
     }
     FillHoles(grid, map);
     return map;

@@ -14,17 +14,17 @@ struct SurfaceConfig {
     int max_window_cells = 9;         ///< widest fit window, in cells (odd)
     double inlier_sigmas = 2.5;       ///< inlier band around the fit, in noise sigmas
     int ransac_iterations = 48;
-    double support_ratio = 0.5;       ///< hypotheses with this share of the best support compete
+    double support_ratio = 0.5;          ///< hypotheses with this share of the best support compete
     double min_support_fraction = 0.25;  ///< of the points the window should hold; fewer: a hole
-    double max_slope = 3.0;           ///< steeper fits are walls, not a surface seen from above
-    double min_noise_m = 0.002;       ///< floor on the estimated noise sigma
-    double default_noise_m = 0.02;    ///< used when too few points to estimate the noise
-    int num_threads = 0;              ///< 0 = all cores
+    double max_slope = 3.0;              ///< steeper fits are walls, not a surface seen from above
+    double min_noise_m = 0.002;          ///< floor on the estimated noise sigma
+    double default_noise_m = 0.02;       ///< used when too few points to estimate the noise
+    int num_threads = 0;                 ///< 0 = all cores
 };
 
 /// Height of a surface at every cell anchor of a grid.
 struct SurfaceMap {
-    std::vector<double> height;    ///< z [m] at each cell's anchor; NaN for cells outside the opening
+    std::vector<double> height;  ///< z [m] at each cell's anchor; NaN for cells outside the opening
     std::vector<double> variance;  ///< [m^2] of each height
     std::vector<int> support;      ///< inlier points behind each height; 0 = interpolated
     double noise_sigma_m = 0.0;    ///< robust noise estimate along z

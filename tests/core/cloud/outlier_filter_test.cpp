@@ -19,7 +19,8 @@ Cloud NoisyPlane(std::size_t n, std::size_t outliers, unsigned seed) {
     Cloud cloud;
     for (std::size_t i = 0; i < n; ++i) cloud.emplace_back(u(rng), u(rng), 2.5f + noise(rng));
     std::uniform_real_distribution<float> far(-1.5f, 1.5f);
-    for (std::size_t i = 0; i < outliers; ++i) cloud.emplace_back(far(rng), far(rng), 2.5f + far(rng));
+    for (std::size_t i = 0; i < outliers; ++i)
+        cloud.emplace_back(far(rng), far(rng), 2.5f + far(rng));
     return cloud;
 }
 
@@ -57,7 +58,7 @@ TEST(OutlierFilterTest, IsolatedReturnsAreRemovedAndTheSurfaceKept) {
             ++outliers_left;
         }
     }
-    EXPECT_LE(outliers_left, 4u);  // outliers that happen to land on the plane stay
+    EXPECT_LE(outliers_left, 4u);           // outliers that happen to land on the plane stay
     EXPECT_GE(result.kept.size(), 19000u);  // at most 5% of the surface goes
 }
 

@@ -33,7 +33,8 @@ TEST(Polygon2dTest, ConcaveClipIsExact) {
     EXPECT_NEAR(p.ClippedArea({0, 0}, {0.5, 0.5}), 7.0 / 30.0, 1e-12);  // by hand
     double sum = 0.0;
     for (int i = 0; i < 10; ++i) {
-        for (int j = 0; j < 10; ++j) sum += p.ClippedArea({i * 0.1, j * 0.1}, {i * 0.1 + 0.1, j * 0.1 + 0.1});
+        for (int j = 0; j < 10; ++j)
+            sum += p.ClippedArea({i * 0.1, j * 0.1}, {i * 0.1 + 0.1, j * 0.1 + 0.1});
     }
     EXPECT_NEAR(sum, p.Area(), 1e-12);
 }

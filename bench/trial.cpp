@@ -1,0 +1,90 @@
+#include "bench/trial.hpp"
+
+#include <random>
+
+#include "core/common/timer.hpp"
+
+namespace soilvol::bench {
+
+sim::SensorSpec PaperSensor(sim::ContainerKind container) {
+    sim::SensorSpec sensor;
+    sensor.range_noise_sigma_m = 0.04;
+    sensor.angular_resolution_deg = 0.5;
+    switch (container) {
+        case sim::ContainerKind::kPaperBucket:
+            sensor.distance_m = 2.5;
+            sensor.elevation_deg = 55.0;
+            sensor.azimuth_deg = 60.0;
+            break;
+        case sim::ContainerKind::kExcavatorBucket:
+            sensor.distance_m = 2.5;
+            sensor.elevation_deg = 60.0;
+            sensor.azimuth_deg = 20.0;
+            break;
+        case sim::ContainerKind::kTruckBed:
+            // The bed with its cab spans more than 5 m: the sensor stands farther back.
+            sensor.distance_m = 5.0;
+            sensor.elevation_deg = 60.0;
+            sensor.azimuth_deg = 70.0;
+            sensor.max_range_m = 12.0;
+            break;
+    }
+    return sensor;
+}
+
+std::string ContainerName(sim::ContainerKind kind) {
+    switch (kind) {
+        case sim::ContainerKind::kPaperBucket:
+            return "paper bucket 2.05x0.54x0.6 m";
+        case sim::ContainerKind::kExcavatorBucket:
+            return "excavator bucket 1.2x1.0 m, sloped";
+        case sim::ContainerKind::kTruckBed:
+            return "truck bed 4.0x2.2x0.8 m";
+    }
+    return "unknown";
+}
+
+RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
+    sim::SceneSpec spec;
+    spec.container = setup.container;
+    spec.sensor = setup.sensor;
+    spec.jitter = setup.jitter;
+    spec.soil_seed = seed;
+    spec.scan_seed = seed * 1000;
+    const sim::Scene empty = sim::SimulateScene(spec);
+    Corners corners = empty.opening_corners_scan;
+    std::mt19937_64 rng(seed * 7919);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    for (auto& c : corners) {
+        c += setup.corner_noise_m * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    }
+    RegisteredModel out{absl::UnknownError("not run"), empty.struck_capacity_m3, 0.0};
+    Timer timer;
+    out.model = model::BuildContainerModel(empty.points, corners, model::ModelConfig{});
+    out.register_ms = timer.Lap();
+    return out;
+}
+
+sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t scan_index) {
+    sim::SceneSpec spec;
+    spec.container = setup.container;
+    spec.sensor = setup.sensor;
+    spec.jitter = setup.jitter;
+    spec.soil.fill_height_m = fill_m;
+    spec.soil.perturbation_m = setup.perturbation_m;
+    spec.soil_seed = seed;
+    spec.scan_seed = seed * 1000 + 1 + scan_index;
+    return sim::SimulateScene(spec);
+}
+
+absl::StatusOr<pipeline::VolumeEstimate> Estimate(const model::ContainerModel& model,
+                                                  const Cloud& scan, volume::Method method,
+                                                  double cell_m) {
+    pipeline::EstimateConfig config;
+    config.method = method;
+    config.heightmap.cell_m = cell_m;
+    config.paper.cell_m = cell_m > 0.0 ? cell_m : 0.10;
+    return pipeline::EstimateVolume(model, scan, config);
+}
+
+}  // namespace soilvol::bench

@@ -1,0 +1,44 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "core/model/container_model.hpp"
+#include "core/pipeline/estimator.hpp"
+#include "core/sim/scene.hpp"
+
+namespace soilvol::bench {
+
+/// One simulated set-up: a container, a sensor, how much the container moves between scans.
+struct Setup {
+    sim::ContainerKind container = sim::ContainerKind::kPaperBucket;
+    sim::SensorSpec sensor;
+    sim::PoseJitter jitter{3.0, 0.05};  ///< the issue's "up to 3 deg, 5 cm"
+    double corner_noise_m = 0.0;        ///< Gaussian error of the marked corners
+    double perturbation_m = 0.02;       ///< soil surface perturbation amplitude
+};
+
+/// The paper's time-of-flight sensor (4 cm noise, 0.5 deg), placed 2.5-3 m away so that each
+/// container's inside is mostly visible.
+sim::SensorSpec PaperSensor(sim::ContainerKind container);
+
+/// The container model registered from a simulated empty scan (seeded), with the truth.
+struct RegisteredModel {
+    absl::StatusOr<model::ContainerModel> model;
+    double true_struck_m3 = 0.0;
+    double register_ms = 0.0;
+};
+RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed);
+
+/// A filled scan of the same container (new pose, new noise) with its true volume.
+sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t scan_index);
+
+/// Estimates with `method` and `cell_m` (0 = automatic; the paper method needs a size).
+absl::StatusOr<pipeline::VolumeEstimate> Estimate(const model::ContainerModel& model,
+                                                  const Cloud& scan, volume::Method method,
+                                                  double cell_m);
+
+std::string ContainerName(sim::ContainerKind kind);
+
+}  // namespace soilvol::bench

@@ -1,0 +1,19 @@
+#pragma once
+
+#include "core/common/types.hpp"
+
+namespace soilvol::cloud {
+
+/// Each point replaced by the mean of the points within `radius_m` of it, with the normal
+/// (smallest PCA axis) of that neighbourhood. On a noisy surface the means lie on the surface
+/// within noise / sqrt(neighbours); applied alike to two scans of one object, the smoothing
+/// of edges and corners is alike too, so matching them is unbiased.
+struct LocalSurface {
+    Cloud points;
+    Cloud normals;
+};
+
+/// Points with fewer than `min_neighbors` within the radius are dropped.
+LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_neighbors = 5);
+
+}  // namespace soilvol::cloud

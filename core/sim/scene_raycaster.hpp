@@ -1,0 +1,35 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+
+#include "core/sim/scene.hpp"
+#include "core/sim/soil_surface.hpp"
+#include "core/sim/triangle_bvh.hpp"
+
+namespace soilvol::sim {
+
+/// First-hit ray queries against a container mesh and its soil, in the container frame.
+class SceneRaycaster {
+  public:
+    SceneRaycaster(const ContainerGeometry& container, const SoilSurface& soil);
+
+    /// Distance [m] along unit `direction` to the first hit of the mesh or the soil surface in
+    /// (0, max_range), if any. The soil is found by marching in steps of at most 5 mm and
+    /// bisecting to 0.01 mm.
+    std::optional<double> Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                               double max_range) const;
+    /// Box that holds the mesh and the soil.
+    Eigen::AlignedBox3d Bounds() const;
+
+  private:
+    std::optional<double> MarchSoil(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                                    double max_range) const;
+
+    TriangleBvh bvh_;
+    SoilSurface soil_;
+    Eigen::AlignedBox3d soil_box_;  // where the soil surface can be; empty without soil
+};
+
+}  // namespace soilvol::sim
