@@ -17,9 +17,11 @@ sim::SensorSpec PaperSensor(sim::ContainerKind container) {
             sensor.azimuth_deg = 60.0;
             break;
         case sim::ContainerKind::kExcavatorBucket:
+            // Behind the curved back, looking at the 75-degree front wall: the camera on a
+            // cab sees a curled bucket from this side.
             sensor.distance_m = 2.5;
-            sensor.elevation_deg = 60.0;
-            sensor.azimuth_deg = 20.0;
+            sensor.elevation_deg = 65.0;
+            sensor.azimuth_deg = 200.0;
             break;
         case sim::ContainerKind::kTruckBed:
             // The bed with its cab spans more than 5 m: the sensor stands farther back.

@@ -26,7 +26,7 @@ struct AlignConfig {
     /// The scan is voxel-averaged and smoothed exactly as the model's alignment set was
     /// (ModelConfig), so that noise blurs both alike: nearest-neighbour correspondences on a raw
     /// noisy scan follow the noise and leave the pose biased.
-    double target_voxel_m = 0.02;
+    double target_voxel_m = 0.03;
     double smoothing_radius_m = 0.08;  ///< 0 = off
     double crop_margin_m = 0.30;       ///< scan cropped to the model's extent plus this margin
     int num_threads = 0;               ///< 0 = all cores

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <numeric>
 
-#include "core/cloud/kd_tree.hpp"
 #include "core/cloud/voxel_grid.hpp"
 
 namespace soilvol::cloud {
@@ -22,47 +21,64 @@ double NeighborVoxelSize(const Cloud& points, int k) {
         lo = lo.cwiseMin(p);
         hi = hi.cwiseMax(p);
     }
+    // Density from every 8th point (a surface's density scales with the share kept).
+    constexpr std::size_t kStride = 8;
+    Cloud sample;
+    for (std::size_t i = 0; i < points.size(); i += kStride) sample.push_back(points[i]);
     const double n = static_cast<double>(points.size());
+    const double m = static_cast<double>(sample.size());
     const Eigen::Vector3d extent = (hi - lo).cast<double>().cwiseMax(1e-3);
     double h = std::cbrt(extent.prod() / n) * 2.0;
     for (int pass = 0; pass < 2; ++pass) {
-        const VoxelGrid grid(points, h);
-        const double per_voxel = n / static_cast<double>(grid.NumVoxels());
+        const VoxelGrid grid(sample, h * std::sqrt(static_cast<double>(kStride)));
+        // Sample voxels of h sqrt(8) hold as many sample points as full voxels of h hold points.
+        const double per_voxel = m / static_cast<double>(grid.NumVoxels());
         const double surface_density = per_voxel / (h * h);
         h = 1.2 * std::sqrt(static_cast<double>(k) / (kPi * surface_density));
     }
     return std::max(h, 1e-4);
 }
 
-// Mean k-NN distance of `i` from the candidates; negative when the grid block cannot prove
-// that the k nearest are among them.
+// Mean k-NN distance of `i` from the candidates, all points within `h` of it; negative when
+// fewer than k lie within h (then the k nearest are not proven to be among them), or, with
+// `bound`, the lower bound that counts each missing neighbour at distance h.
 float MeanFromCandidates(const Cloud& points, uint32_t i, const std::vector<uint32_t>& candidates,
-                         int k, double h, std::vector<float>& scratch) {
+                         int k, double h, bool bound, std::vector<float>& scratch) {
+    // Only candidates within h can be proven to be among the k nearest.
     scratch.clear();
     const Eigen::Vector3f& p = points[i];
+    const auto h2 = static_cast<float>(h * h);
     for (const uint32_t j : candidates) {
-        if (j != i) scratch.push_back((points[j] - p).squaredNorm());
+        const float d2 = (points[j] - p).squaredNorm();
+        if (d2 <= h2 && j != i) scratch.push_back(d2);
     }
     const auto kk = static_cast<std::size_t>(k);
-    if (scratch.size() < kk) return -1.0f;
+    if (scratch.size() < kk) {
+        if (!bound) return -1.0f;
+        double sum = static_cast<double>(kk - scratch.size()) * h;
+        for (const float d2 : scratch) sum += std::sqrt(static_cast<double>(d2));
+        return static_cast<float>(sum / static_cast<double>(k));
+    }
     std::nth_element(scratch.begin(), scratch.begin() + static_cast<long>(kk - 1), scratch.end());
-    if (static_cast<double>(scratch[kk - 1]) > h * h) return -1.0f;
     double sum = 0.0;
     for (std::size_t j = 0; j < kk; ++j) sum += std::sqrt(static_cast<double>(scratch[j]));
     return static_cast<float>(sum / static_cast<double>(k));
 }
 
-void GatherBlock(const VoxelGrid& grid, const Eigen::Vector3i& c, std::vector<uint32_t>& out) {
+// Points of the (2 reach + 1)^3 voxels around `c`.
+void GatherBlock(const VoxelGrid& grid, const Eigen::Vector3i& c, int reach,
+                 std::vector<uint32_t>& out) {
     out.clear();
-    for (int dx = -1; dx <= 1; ++dx) {
-        for (int dy = -1; dy <= 1; ++dy) {
-            for (int dz = -1; dz <= 1; ++dz) {
-                const int64_t v = grid.Find(c + Eigen::Vector3i(dx, dy, dz));
-                if (v < 0) continue;
-                const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
-                out.insert(out.end(), grid.Order().begin() + static_cast<long>(begin),
-                           grid.Order().begin() + static_cast<long>(end));
-            }
+    for (int dx = -reach; dx <= reach; ++dx) {
+        for (int dy = -reach; dy <= reach; ++dy) {
+            // The voxels along z are one contiguous run of the sorted grid.
+            const auto [first, last] =
+                grid.ColumnRange(c + Eigen::Vector3i(dx, dy, -reach), 2 * reach + 1);
+            if (first == last) continue;
+            const std::size_t begin = grid.Range(first).first;
+            const std::size_t end = grid.Range(last - 1).second;
+            out.insert(out.end(), grid.Order().begin() + static_cast<long>(begin),
+                       grid.Order().begin() + static_cast<long>(end));
         }
     }
 }
@@ -76,39 +92,29 @@ std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_thr
     const VoxelGrid grid(points, h);
     const int threads = num_threads > 0 ? num_threads : omp_get_max_threads();
     const auto num_voxels = static_cast<long>(grid.NumVoxels());
+    // Pass 1: the 3^3 block holds every point within h; pass 2, for the points with fewer than
+    // k there: the 5^3 block holds every point within 2h, else a lower bound is kept.
+    for (const int reach : {1, 2}) {
 #pragma omp parallel num_threads(threads)
-    {
-        std::vector<uint32_t> candidates;
-        std::vector<float> scratch;
+        {
+            std::vector<uint32_t> candidates;
+            std::vector<float> scratch;
 #pragma omp for schedule(dynamic, 32)
-        for (long v = 0; v < num_voxels; ++v) {
-            GatherBlock(grid, grid.Coord(static_cast<std::size_t>(v)), candidates);
-            const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
-            for (std::size_t o = begin; o < end; ++o) {
-                const uint32_t i = grid.Order()[o];
-                mean[i] = MeanFromCandidates(points, i, candidates, k, h, scratch);
+            for (long v = 0; v < num_voxels; ++v) {
+                const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
+                bool needed = false;
+                for (std::size_t o = begin; o < end && !needed; ++o)
+                    needed = mean[grid.Order()[o]] < 0.0f;
+                if (!needed) continue;
+                GatherBlock(grid, grid.Coord(static_cast<std::size_t>(v)), reach, candidates);
+                for (std::size_t o = begin; o < end; ++o) {
+                    const uint32_t i = grid.Order()[o];
+                    if (mean[i] >= 0.0f) continue;
+                    mean[i] = MeanFromCandidates(points, i, candidates, k, reach * h, reach == 2,
+                                                 scratch);
+                }
             }
         }
-    }
-    // Sparse points: exact k-NN from a k-d tree.
-    std::vector<uint32_t> sparse;
-    for (uint32_t i = 0; i < points.size(); ++i) {
-        if (mean[i] < 0.0f) sparse.push_back(i);
-    }
-    if (sparse.empty()) return mean;
-    const KdTree tree(points);
-    const auto kk = static_cast<std::size_t>(k) + 1;
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
-    for (long s = 0; s < static_cast<long>(sparse.size()); ++s) {
-        const uint32_t i = sparse[static_cast<std::size_t>(s)];
-        double sum = 0.0;
-        std::size_t used = 0;
-        for (const auto& [j, dist2] : tree.Knn(points[i], kk)) {
-            if (j == i || used == kk - 1) continue;
-            sum += std::sqrt(static_cast<double>(dist2));
-            ++used;
-        }
-        mean[i] = static_cast<float>(sum / static_cast<double>(std::max<std::size_t>(used, 1)));
     }
     return mean;
 }
@@ -120,11 +126,33 @@ OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
         result.kept = points;
         return result;
     }
+    // Voxel centroids stand for their points (every point is its own voxel when voxel_m <= 0).
+    Cloud centroids;
+    std::vector<uint32_t> voxel_of(points.size());
+    if (config.voxel_m > 0.0) {
+        const VoxelGrid grid(points, config.voxel_m);
+        centroids.reserve(grid.NumVoxels());
+        for (std::size_t v = 0; v < grid.NumVoxels(); ++v) {
+            const auto [begin, end] = grid.Range(v);
+            Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+            for (std::size_t o = begin; o < end; ++o) {
+                sum += points[grid.Order()[o]].cast<double>();
+                voxel_of[grid.Order()[o]] = static_cast<uint32_t>(v);
+            }
+            centroids.push_back((sum / static_cast<double>(end - begin)).cast<float>());
+        }
+    } else {
+        centroids = points;
+        for (std::size_t i = 0; i < points.size(); ++i) voxel_of[i] = static_cast<uint32_t>(i);
+    }
+    if (centroids.size() <= static_cast<std::size_t>(config.mean_k)) {
+        result.kept = points;
+        return result;
+    }
     const std::vector<float> mean =
-        MeanNeighborDistances(points, config.mean_k, config.num_threads);
-    const double n = static_cast<double>(points.size());
-    const double sum = std::accumulate(mean.begin(), mean.end(), 0.0);
-    const double mu = sum / n;
+        MeanNeighborDistances(centroids, config.mean_k, config.num_threads);
+    const double n = static_cast<double>(mean.size());
+    const double mu = std::accumulate(mean.begin(), mean.end(), 0.0) / n;
     double sq = 0.0;
     for (const float d : mean) sq += (static_cast<double>(d) - mu) * (static_cast<double>(d) - mu);
     const double sigma = std::sqrt(sq / std::max(n - 1.0, 1.0));
@@ -132,7 +160,8 @@ OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
     result.threshold_m = mu + config.stddev_mul * sigma;
     result.kept.reserve(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) {
-        if (static_cast<double>(mean[i]) <= result.threshold_m) result.kept.push_back(points[i]);
+        if (static_cast<double>(mean[voxel_of[i]]) <= result.threshold_m)
+            result.kept.push_back(points[i]);
     }
     result.removed = points.size() - result.kept.size();
     return result;

@@ -14,6 +14,9 @@ namespace soilvol::cloud {
 struct OutlierFilterConfig {
     int mean_k = 16;
     double stddev_mul = 2.0;
+    /// The statistics run on the centroids of voxels this size and a point goes with its voxel:
+    /// a dense scan costs what a scan of this spacing costs. 0 = every point on its own.
+    double voxel_m = 0.02;
     int num_threads = 0;  ///< 0 = all cores
 };
 
@@ -24,8 +27,10 @@ struct OutlierFilterResult {
     double threshold_m = 0.0;      ///< points above this mean k-NN distance were removed
 };
 
-/// Mean distance [m] of each point to its k nearest neighbours (itself excluded). Exact; uses a
-/// voxel grid sized from the cloud's density and falls back to a k-d tree for sparse points.
+/// Mean distance [m] of each point to its k nearest neighbours (itself excluded), on a voxel
+/// grid of size h sized from the cloud's density. Exact for every point whose k nearest lie
+/// within 2h (all but isolated returns); for the others a lower bound that counts each missing
+/// neighbour at 2h, which is already far beyond any removal threshold.
 std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_threads = 0);
 
 /// Removes statistical outliers. Clouds with no more than `mean_k` points are returned as-is.

@@ -66,6 +66,17 @@ int64_t VoxelGrid::Find(const Eigen::Vector3i& c) const {
     return it - keys_.begin();
 }
 
+std::pair<std::size_t, std::size_t> VoxelGrid::ColumnRange(const Eigen::Vector3i& c,
+                                                           int count) const {
+    const uint64_t lo = Pack(c);
+    const uint64_t hi = Pack(c + Eigen::Vector3i(0, 0, count - 1));
+    const auto first = std::lower_bound(keys_.begin(), keys_.end(), lo);
+    auto last = first;
+    while (last != keys_.end() && *last <= hi) ++last;
+    return {static_cast<std::size_t>(first - keys_.begin()),
+            static_cast<std::size_t>(last - keys_.begin())};
+}
+
 Cloud VoxelDownsample(const Cloud& points, double voxel_size_m) {
     if (voxel_size_m <= 0.0) return points;
     const VoxelGrid grid(points, voxel_size_m);

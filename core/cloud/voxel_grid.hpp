@@ -28,6 +28,8 @@ class VoxelGrid {
     Eigen::Vector3i Coord(std::size_t v) const;
     /// Occupied voxel at integer coordinates `c`, or -1.
     int64_t Find(const Eigen::Vector3i& c) const;
+    /// Occupied voxels [first, last) among c, c + z, ..., c + (count - 1) z: one sorted run.
+    std::pair<std::size_t, std::size_t> ColumnRange(const Eigen::Vector3i& c, int count) const;
     /// Integer coordinates of the voxel holding `p`.
     Eigen::Vector3i CoordOf(const Eigen::Vector3f& p) const;
 

@@ -41,14 +41,18 @@ Cloud AlignmentCandidates(const Cloud& outside, const Opening& opening, double b
     return kept;
 }
 
-// Walls seen inside the opening's column (steep local surfaces) plus everything outside it.
+// Near-vertical surfaces of the container, inside the opening's column or around it (inner
+// and outer walls). Horizontal rims and sloped walls are not structure: the heightmap holds
+// them, and the lowest-layer rule of the surface fit keeps a rim's noise off the floor.
 Cloud StructurePoints(const Cloud& inside, const Cloud& outside, const ModelConfig& config,
                       double radius_m) {
-    const cloud::LocalSurface local = cloud::SmoothLocalSurface(
-        cloud::VoxelDownsample(inside, config.smoothing_voxel_m), radius_m);
+    Cloud all = inside;
+    all.insert(all.end(), outside.begin(), outside.end());
+    const cloud::LocalSurface local =
+        cloud::SmoothLocalSurface(cloud::VoxelDownsample(all, config.smoothing_voxel_m), radius_m);
     const auto max_nz =
         static_cast<float>(std::cos(config.wall_min_slope_deg * 3.14159265358979 / 180.0));
-    Cloud structure = cloud::VoxelDownsample(outside, config.smoothing_voxel_m);
+    Cloud structure;
     for (std::size_t i = 0; i < local.points.size(); ++i) {
         if (std::abs(local.normals[i].z()) < max_nz) structure.push_back(local.points[i]);
     }

@@ -22,10 +22,11 @@ struct ModelConfig {
     double alignment_voxel_m = 0.03;  ///< one alignment point per voxel of this size
     /// Smoothing of the alignment set; must match AlignConfig's target_voxel_m and
     /// smoothing_radius_m, which treat each scan the same way.
-    double smoothing_voxel_m = 0.02;
+    double smoothing_voxel_m = 0.03;
     double smoothing_radius_m = 0.08;
-    /// Inside points on surfaces steeper than this from horizontal are walls, not floor.
-    double wall_min_slope_deg = 60.0;
+    /// Surfaces steeper than this from horizontal are walls: their columns are masked.
+    double wall_min_slope_deg = 85.0;
+    double wall_normal_radius_m = 0.12;  ///< at least; 3 noise sigmas when larger
     /// The structure mask reaches this many noise sigmas from the container's walls and rim.
     double structure_sigmas = 2.5;
     double min_structure_radius_m = 0.02;

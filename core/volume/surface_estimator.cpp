@@ -18,6 +18,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Sample {
     double dx, dy, z;  // offset from the cell's anchor [m], height [m]
+    double w;          // weight: Gaussian in the distance to the anchor
 };
 
 struct PlaneFit {
@@ -27,27 +28,32 @@ struct PlaneFit {
     double Residual(const Sample& s) const { return s.z - (a + b * s.dx + c * s.dy); }
 };
 
-// Least squares over the samples with |residual| <= band under `prior` (all when band <= 0).
+// Weighted least squares over the samples with |residual| <= band under `prior` (all when
+// band <= 0): a level when the points are few or bunched, else a plane.
 PlaneFit FitInliers(const std::vector<Sample>& samples, const PlaneFit& prior, double band,
                     double window_m, double max_slope) {
-    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();   // A' W A
+    Eigen::Matrix3d aw2a = Eigen::Matrix3d::Zero();  // A' W^2 A, for the variance
     Eigen::Vector3d atz = Eigen::Vector3d::Zero();
+    int n = 0;
     for (const Sample& s : samples) {
         if (band > 0.0 && std::abs(prior.Residual(s)) > band) continue;
         const Eigen::Vector3d row(1.0, s.dx, s.dy);
-        ata += row * row.transpose();
-        atz += row * s.z;
+        ata += s.w * row * row.transpose();
+        aw2a += s.w * s.w * row * row.transpose();
+        atz += s.w * row * s.z;
+        ++n;
     }
     PlaneFit fit;
-    const double n = ata(0, 0);
-    if (n < 1.0) return fit;
+    const double sw = ata(0, 0);
+    if (n < 1 || sw <= 0.0) return fit;
     fit.ok = true;
-    fit.a = atz(0) / n;
-    fit.var_factor = 1.0 / n;
-    if (n < 6.0) return fit;
+    fit.a = atz(0) / sw;
+    fit.var_factor = aw2a(0, 0) / (sw * sw);
+    if (n < 6) return fit;
     // Slope only when the points spread over the window in both directions.
-    const Eigen::Vector2d mean = ata.block<2, 1>(1, 0) / n;
-    const Eigen::Matrix2d cov = ata.block<2, 2>(1, 1) / n - mean * mean.transpose();
+    const Eigen::Vector2d mean = ata.block<2, 1>(1, 0) / sw;
+    const Eigen::Matrix2d cov = ata.block<2, 2>(1, 1) / sw - mean * mean.transpose();
     if (Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()(0) <
         0.01 * window_m * window_m) {
         return fit;
@@ -58,7 +64,7 @@ PlaneFit FitInliers(const std::vector<Sample>& samples, const PlaneFit& prior, d
     fit.a = x(0);
     fit.b = x(1);
     fit.c = x(2);
-    fit.var_factor = inv(0, 0);
+    fit.var_factor = (inv * aw2a * inv)(0, 0);
     return fit;
 }
 
@@ -72,25 +78,26 @@ int CountInliers(const std::vector<Sample>& samples, const PlaneFit& fit, double
 
 struct Hypothesis {
     PlaneFit fit;
-    int count = 0;
-    double mean_z = 0.0;  // mean height of its inliers
+    double support = 0.0;  // summed weights of its inliers
+    double mean_z = 0.0;   // weighted mean height of its inliers
 };
 
 Hypothesis Score(const std::vector<Sample>& samples, const PlaneFit& fit, double band, int stride) {
-    Hypothesis h{fit, 0, 0.0};
+    Hypothesis h{fit, 0.0, 0.0};
     for (std::size_t i = 0; i < samples.size(); i += static_cast<std::size_t>(stride)) {
-        if (std::abs(fit.Residual(samples[i])) > band) continue;
-        ++h.count;
-        h.mean_z += samples[i].z;
+        const Sample& s = samples[i];
+        if (std::abs(fit.Residual(s)) > band) continue;
+        h.support += s.w;
+        h.mean_z += s.w * s.z;
     }
-    if (h.count > 0) h.mean_z /= h.count;
+    if (h.support > 0.0) h.mean_z /= h.support;
     return h;
 }
 
-// RANSAC over height-form planes and level hypotheses. Seen from above, the contents' surface is
-// the lowest well-supported layer: walls leaking into a cell through noise lie above it and
-// nothing lies below it, so among hypotheses with at least `support_ratio` of the best support
-// the one whose inliers lie lowest wins.
+// RANSAC over height-form planes and level hypotheses, support weighted towards the anchor. Seen
+// from above, the contents' surface is the lowest well-supported layer: walls leaking into a
+// cell through noise lie above it and nothing lies below it, so among hypotheses with at least
+// `support_ratio` of the best support the one whose inliers lie lowest wins.
 PlaneFit Ransac(const std::vector<Sample>& samples, double sigma, const SurfaceConfig& config,
                 std::mt19937& rng) {
     const int n = static_cast<int>(samples.size());
@@ -119,20 +126,25 @@ PlaneFit Ransac(const std::vector<Sample>& samples, double sigma, const SurfaceC
         plane.ok = true;
         hypotheses.push_back(Score(samples, plane, band, stride));
     }
-    int best_count = 0;
-    for (const Hypothesis& h : hypotheses) best_count = std::max(best_count, h.count);
+    double best_support = 0.0;
+    for (const Hypothesis& h : hypotheses) best_support = std::max(best_support, h.support);
     const Hypothesis* chosen = nullptr;
     for (const Hypothesis& h : hypotheses) {
-        if (h.count < config.support_ratio * best_count) continue;
+        if (h.support < config.support_ratio * best_support) continue;
         if (chosen == nullptr || h.mean_z < chosen->mean_z) chosen = &h;
     }
     return chosen != nullptr ? chosen->fit : PlaneFit{};
 }
 
+// The points of the window of (2 half + 1)^2 cells around `cell`, weighted by a Gaussian in their
+// distance to the cell's anchor (sigma: half a cell, or a quarter of a wider window): the cell's
+// own points dominate while the neighbours' steady the fit.
 std::vector<Sample> GatherWindow(const Grid& grid, const CellBins& bins, const Cloud& points,
                                  int cell, int half) {
     std::vector<Sample> samples;
     const Eigen::Vector2d centre = grid.anchor[static_cast<std::size_t>(cell)];
+    const double h = grid.cell_m * std::max(0.5, 0.25 * (2 * half + 1));
+    const double inv_two_h2 = 1.0 / (2.0 * h * h);
     const int col = cell % grid.cols, row = cell / grid.cols;
     for (int r = std::max(0, row - half); r <= std::min(grid.rows - 1, row + half); ++r) {
         for (int c = std::max(0, col - half); c <= std::min(grid.cols - 1, col + half); ++c) {
@@ -140,9 +152,10 @@ std::vector<Sample> GatherWindow(const Grid& grid, const CellBins& bins, const C
             for (int i = bins.start[k]; i < bins.start[k + 1]; ++i) {
                 const Eigen::Vector3f& p =
                     points[static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)])];
-                samples.push_back({static_cast<double>(p.x()) - centre.x(),
-                                   static_cast<double>(p.y()) - centre.y(),
-                                   static_cast<double>(p.z())});
+                const double dx = static_cast<double>(p.x()) - centre.x();
+                const double dy = static_cast<double>(p.y()) - centre.y();
+                samples.push_back({dx, dy, static_cast<double>(p.z()),
+                                   std::exp(-(dx * dx + dy * dy) * inv_two_h2)});
             }
         }
     }

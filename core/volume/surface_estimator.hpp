@@ -16,10 +16,11 @@ struct SurfaceConfig {
     int ransac_iterations = 48;
     double support_ratio = 0.5;          ///< hypotheses with this share of the best support compete
     double min_support_fraction = 0.25;  ///< of the points the window should hold; fewer: a hole
-    double max_slope = 3.0;              ///< steeper fits are walls, not a surface seen from above
-    double min_noise_m = 0.002;          ///< floor on the estimated noise sigma
-    double default_noise_m = 0.02;       ///< used when too few points to estimate the noise
-    int num_threads = 0;                 ///< 0 = all cores
+    double max_slope =
+        6.0;  ///< steeper fits (over 80 deg) are walls, not a surface seen from above
+    double min_noise_m = 0.002;     ///< floor on the estimated noise sigma
+    double default_noise_m = 0.02;  ///< used when too few points to estimate the noise
+    int num_threads = 0;            ///< 0 = all cores
 };
 
 /// Height of a surface at every cell anchor of a grid.
