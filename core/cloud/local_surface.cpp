@@ -36,6 +36,7 @@ LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_ne
         if (!kept[k]) continue;
         out.points.push_back(means[k]);
         out.normals.push_back(normals[k]);
+        out.sources.push_back(points[k]);
     }
     return out;
 }

@@ -9,8 +9,9 @@ namespace soilvol::cloud {
 /// within noise / sqrt(neighbours); applied alike to two scans of one object, the smoothing
 /// of edges and corners is alike too, so matching them is unbiased.
 struct LocalSurface {
-    Cloud points;
-    Cloud normals;
+    Cloud points;   ///< neighbourhood means
+    Cloud normals;  ///< unit normals of the neighbourhoods
+    Cloud sources;  ///< the input point each mean belongs to
 };
 
 /// Points with fewer than `min_neighbors` within the radius are dropped.

@@ -27,18 +27,13 @@ void SplitInsideOutside(const Cloud& points, const Opening& opening, const Model
     }
 }
 
-// Outside points near the opening's column and below the rim are inner walls seen through
-// noise; soil covers them, so they stay out of the alignment set.
-Cloud AlignmentCandidates(const Cloud& outside, const Opening& opening, double band_m) {
-    Cloud kept;
-    for (const auto& p : outside) {
-        const Eigen::Vector2d xy = p.head<2>().cast<double>();
-        const bool near_column =
-            opening.polygon.Contains(xy) || opening.polygon.DistanceToBoundary(xy) < band_m;
-        if (near_column && static_cast<double>(p.z()) < -band_m) continue;
-        kept.push_back(p);
-    }
-    return kept;
+// Points in the opening's column (or within `band_m` of it) below the rim are the inside and
+// the inner walls seen through noise; soil covers them, so they stay out of the alignment set.
+bool InAlignmentSet(const Eigen::Vector3f& p, const Opening& opening, double band_m) {
+    const Eigen::Vector2d xy = p.head<2>().cast<double>();
+    const bool near_column =
+        opening.polygon.Contains(xy) || opening.polygon.DistanceToBoundary(xy) < band_m;
+    return !(near_column && static_cast<double>(p.z()) < -band_m);
 }
 
 // Near-vertical surfaces of the container, inside the opening's column or around it (inner
@@ -99,15 +94,21 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
             "only ", model.inside.size(), " points of the empty scan lie inside the opening (need ",
             config.min_inside_points, "): check the corners and that the inside is visible"));
     }
-    // Smoothed as the pipeline smooths each scan before ICP (AlignConfig), then thinned.
-    const Cloud candidates = AlignmentCandidates(outside, model.opening, config.wall_band_m);
+    // The whole scan smoothed as the pipeline smooths each new scan before ICP (AlignConfig),
+    // so that a mean near the rim sees the same surfaces in both; then selected and thinned.
     const cloud::LocalSurface surface = cloud::SmoothLocalSurface(
-        cloud::VoxelDownsample(candidates, config.smoothing_voxel_m), config.smoothing_radius_m);
-    const cloud::VoxelGrid thin(surface.points, config.alignment_voxel_m);
+        cloud::VoxelDownsample(points, config.smoothing_voxel_m), config.smoothing_radius_m);
+    Cloud selected, selected_normals;
+    for (std::size_t i = 0; i < surface.points.size(); ++i) {
+        if (!InAlignmentSet(surface.sources[i], model.opening, config.wall_band_m)) continue;
+        selected.push_back(surface.points[i]);
+        selected_normals.push_back(surface.normals[i]);
+    }
+    const cloud::VoxelGrid thin(selected, config.alignment_voxel_m);
     for (std::size_t v = 0; v < thin.NumVoxels(); ++v) {
         const uint32_t i = thin.Order()[thin.Range(v).first];
-        model.alignment_points.push_back(surface.points[i]);
-        model.alignment_normals.push_back(surface.normals[i]);
+        model.alignment_points.push_back(selected[i]);
+        model.alignment_normals.push_back(selected_normals[i]);
     }
     if (model.alignment_points.size() < config.min_alignment_points) {
         return absl::FailedPreconditionError(absl::StrCat(

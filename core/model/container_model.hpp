@@ -32,7 +32,7 @@ struct ModelConfig {
     double min_structure_radius_m = 0.02;
     double max_structure_radius_m = 0.15;
     std::size_t min_inside_points = 30;
-    std::size_t min_alignment_points = 50;
+    std::size_t min_alignment_points = 30;
     volume::HeightmapConfig heightmap;  ///< used for the empty surface and the capacities
 };
 
