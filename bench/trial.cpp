@@ -7,30 +7,9 @@
 namespace soilvol::bench {
 
 sim::SensorSpec PaperSensor(sim::ContainerKind container) {
-    sim::SensorSpec sensor;
+    sim::SensorSpec sensor = sim::ViewpointFor(container);
     sensor.range_noise_sigma_m = 0.04;
     sensor.angular_resolution_deg = 0.5;
-    switch (container) {
-        case sim::ContainerKind::kPaperBucket:
-            sensor.distance_m = 2.5;
-            sensor.elevation_deg = 55.0;
-            sensor.azimuth_deg = 60.0;
-            break;
-        case sim::ContainerKind::kExcavatorBucket:
-            // Behind the curved back, looking at the 75-degree front wall: the camera on a
-            // cab sees a curled bucket from this side.
-            sensor.distance_m = 2.5;
-            sensor.elevation_deg = 65.0;
-            sensor.azimuth_deg = 200.0;
-            break;
-        case sim::ContainerKind::kTruckBed:
-            // The bed with its cab spans more than 5 m: the sensor stands farther back.
-            sensor.distance_m = 5.0;
-            sensor.elevation_deg = 60.0;
-            sensor.azimuth_deg = 70.0;
-            sensor.max_range_m = 12.0;
-            break;
-    }
     return sensor;
 }
 

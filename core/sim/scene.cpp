@@ -39,6 +39,27 @@ Pose JitterPose(const PoseJitter& jitter, std::mt19937_64* rng) {
 
 }  // namespace
 
+SensorSpec ViewpointFor(ContainerKind kind) {
+    SensorSpec sensor;
+    switch (kind) {
+        case ContainerKind::kPaperBucket:
+            sensor.elevation_deg = 55.0;
+            sensor.azimuth_deg = 60.0;
+            break;
+        case ContainerKind::kExcavatorBucket:
+            sensor.elevation_deg = 65.0;
+            sensor.azimuth_deg = 200.0;
+            break;
+        case ContainerKind::kTruckBed:
+            sensor.distance_m = 5.0;
+            sensor.elevation_deg = 60.0;
+            sensor.azimuth_deg = 70.0;
+            sensor.max_range_m = 12.0;
+            break;
+    }
+    return sensor;
+}
+
 Scene SimulateScene(const SceneSpec& spec) {
     const ContainerGeometry container = MakeContainer(spec.container);
     const SoilSurface soil(container, spec.soil, spec.soil_seed);

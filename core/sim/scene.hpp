@@ -65,6 +65,11 @@ struct SensorSpec {
     double max_range_m = 8.0;             ///< returns beyond are dropped
 };
 
+/// A sensor placed to see most of `kind`'s inside (range noise and resolution at their
+/// defaults): paper bucket 2.5 m at 55 deg elevation, 60 deg azimuth; excavator bucket 2.5 m at
+/// 65 deg from behind its curved back; truck bed 5 m at 60 deg (its cab makes it over 5 m long).
+SensorSpec ViewpointFor(ContainerKind kind);
+
 /// Random container pose change between scans, drawn uniformly up to these bounds.
 struct PoseJitter {
     double max_rotation_deg = 0.0;

@@ -11,26 +11,9 @@ namespace {
 
 using sim::ContainerKind;
 
-// A sensor that sees each container's inside (cf. bench/trial.cpp) with `sigma_m` range noise.
 sim::SensorSpec Sensor(ContainerKind kind, double sigma_m) {
-    sim::SensorSpec s;
+    sim::SensorSpec s = sim::ViewpointFor(kind);
     s.range_noise_sigma_m = sigma_m;
-    switch (kind) {
-        case ContainerKind::kPaperBucket:
-            s.elevation_deg = 55.0;
-            s.azimuth_deg = 60.0;
-            break;
-        case ContainerKind::kExcavatorBucket:
-            s.elevation_deg = 65.0;
-            s.azimuth_deg = 200.0;
-            break;
-        case ContainerKind::kTruckBed:
-            s.distance_m = 5.0;
-            s.elevation_deg = 60.0;
-            s.azimuth_deg = 70.0;
-            s.max_range_m = 12.0;
-            break;
-    }
     return s;
 }
 
