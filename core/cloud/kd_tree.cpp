@@ -44,17 +44,6 @@ std::pair<int64_t, float> KdTree::Nearest(const Eigen::Vector3f& query) const {
     return {index, dist2};
 }
 
-std::vector<std::pair<uint32_t, float>> KdTree::Knn(const Eigen::Vector3f& query,
-                                                    std::size_t k) const {
-    std::vector<uint32_t> index(k);
-    std::vector<float> dist2(k);
-    if (impl_->adaptor.points.empty() || k == 0) return {};
-    const std::size_t found = impl_->index.knnSearch(query.data(), k, index.data(), dist2.data());
-    std::vector<std::pair<uint32_t, float>> out(found);
-    for (std::size_t i = 0; i < found; ++i) out[i] = {index[i], dist2[i]};
-    return out;
-}
-
 std::vector<std::pair<uint32_t, float>> KdTree::Radius(const Eigen::Vector3f& query,
                                                        double radius_m) const {
     std::vector<std::pair<uint32_t, float>> out;

@@ -7,7 +7,7 @@ namespace soilvol::model {
 
 StructureMask::StructureMask(const Cloud& structure, double radius_m, const Eigen::Vector2d& lo,
                              const Eigen::Vector2d& hi, double z_min, double z_max)
-    : radius_m_(radius_m), cell_m_(std::max(0.005, radius_m / 4.0)), lo_(lo) {
+    : cell_m_(std::max(0.005, radius_m / 4.0)), lo_(lo) {
     cols_ = std::max(1, static_cast<int>(std::ceil((hi.x() - lo.x()) / cell_m_)));
     rows_ = std::max(1, static_cast<int>(std::ceil((hi.y() - lo.y()) / cell_m_)));
     marked_.assign(static_cast<std::size_t>(cols_) * static_cast<std::size_t>(rows_), 0);
@@ -47,13 +47,6 @@ Cloud StructureMask::Filter(const Cloud& points) const {
         if (!Contains(p)) kept.push_back(p);
     }
     return kept;
-}
-
-double StructureMask::MarkedFraction() const {
-    if (marked_.empty()) return 0.0;
-    long n = 0;
-    for (const uint8_t m : marked_) n += m;
-    return static_cast<double>(n) / static_cast<double>(marked_.size());
 }
 
 }  // namespace soilvol::model

@@ -25,12 +25,8 @@ class StructureMask {
     bool Contains(const Eigen::Vector3f& p) const;
     /// The points of `points` whose columns are not marked.
     Cloud Filter(const Cloud& points) const;
-    double Radius() const { return radius_m_; }
-    /// Share of the box's columns that are marked.
-    double MarkedFraction() const;
 
   private:
-    double radius_m_ = 0.0;
     double cell_m_ = 1.0;
     Eigen::Vector2d lo_ = Eigen::Vector2d::Zero();
     int cols_ = 0;
