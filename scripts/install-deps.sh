@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
     build-essential cmake ninja-build pkg-config git ca-certificates
     libeigen3-dev libabsl-dev libpcl-dev libnanoflann-dev liblzf-dev libcli11-dev
+    libopencv-dev opencv-doc
     libgtest-dev libgmock-dev libbenchmark-dev
     clang-format
 )

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/common/types.hpp"
@@ -15,7 +16,18 @@ namespace soilvol::model {
 /// on height would keep the noise above a surface and drop the noise below it.
 class StructureMask {
   public:
+    /// The column grid: cols x rows cells of cell_m from lo, row-major, 1 = marked.
+    struct Columns {
+        double cell_m = 1.0;
+        Eigen::Vector2d lo = Eigen::Vector2d::Zero();
+        int cols = 0;
+        int rows = 0;
+        std::vector<uint8_t> marked;
+    };
+
     StructureMask() = default;
+    /// A mask from its grid (as columns() returned it); the caller checks consistency.
+    explicit StructureMask(Columns columns) : columns_(std::move(columns)) {}
     /// Marks every column within `radius_m` of a point of `structure` whose height lies in
     /// [z_min, z_max], over the box [lo, hi] (xy).
     StructureMask(const Cloud& structure, double radius_m, const Eigen::Vector2d& lo,
@@ -25,13 +37,10 @@ class StructureMask {
     bool Contains(const Eigen::Vector3f& p) const;
     /// The points of `points` whose columns are not marked.
     Cloud Filter(const Cloud& points) const;
+    const Columns& columns() const { return columns_; }
 
   private:
-    double cell_m_ = 1.0;
-    Eigen::Vector2d lo_ = Eigen::Vector2d::Zero();
-    int cols_ = 0;
-    int rows_ = 0;
-    std::vector<uint8_t> marked_;
+    Columns columns_;
 };
 
 }  // namespace soilvol::model

@@ -37,8 +37,13 @@ SceneRaycaster::SceneRaycaster(const ContainerGeometry& container, const SoilSur
     if (soil_.Empty()) return;
     const double hx = 0.5 * container.opening_length_m;
     const double hy = 0.5 * container.opening_width_m;
-    soil_box_ = Eigen::AlignedBox3d(Eigen::Vector3d(-hx, -hy, soil_.SurfaceMinZ()),
-                                    Eigen::Vector3d(hx, hy, soil_.SurfaceMaxZ()));
+    // A flat surface gives a box of zero height, whose samples would all lie on the surface
+    // (inside or not by rounding): give it one march step of depth.
+    const double max_z = soil_.SurfaceMaxZ();
+    double min_z = soil_.SurfaceMinZ();
+    if (!(max_z > min_z)) min_z = max_z - kMarchStepM;
+    soil_box_ =
+        Eigen::AlignedBox3d(Eigen::Vector3d(-hx, -hy, min_z), Eigen::Vector3d(hx, hy, max_z));
 }
 
 std::optional<double> SceneRaycaster::Cast(const Eigen::Vector3d& origin,
@@ -48,6 +53,25 @@ std::optional<double> SceneRaycaster::Cast(const Eigen::Vector3d& origin,
     const std::optional<double> soil_hit =
         MarchSoil(origin, direction, mesh_hit.value_or(max_range));
     return soil_hit ? soil_hit : mesh_hit;
+}
+
+std::optional<RayHit> SceneRaycaster::CastHit(const Eigen::Vector3d& origin,
+                                              const Eigen::Vector3d& direction,
+                                              double max_range) const {
+    const std::optional<TriangleHit> mesh_hit = bvh_.IntersectHit(origin, direction, max_range);
+    const std::optional<double> soil_hit =
+        MarchSoil(origin, direction, mesh_hit ? mesh_hit->distance : max_range);
+    RayHit hit;
+    if (soil_hit) {
+        const Eigen::Vector3d p = origin + *soil_hit * direction;
+        hit = {*soil_hit, soil_.Normal(p.x(), p.y()), SurfaceMaterial::kSoil};
+    } else if (mesh_hit) {
+        hit = {mesh_hit->distance, mesh_hit->normal, SurfaceMaterial::kContainer};
+    } else {
+        return std::nullopt;
+    }
+    if (hit.normal.dot(direction) > 0.0) hit.normal = -hit.normal;
+    return hit;
 }
 
 Eigen::AlignedBox3d SceneRaycaster::Bounds() const {

@@ -10,6 +10,16 @@
 
 namespace soilvol::sim {
 
+/// What a ray hit.
+enum class SurfaceMaterial { kContainer, kSoil };
+
+/// A first hit: distance [m] along the ray, unit surface normal facing the ray origin, material.
+struct RayHit {
+    double distance = 0.0;
+    Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+    SurfaceMaterial material = SurfaceMaterial::kContainer;
+};
+
 /// First-hit ray queries against a container mesh and its soil, in the container frame.
 class SceneRaycaster {
   public:
@@ -20,6 +30,9 @@ class SceneRaycaster {
     /// bisecting to 0.01 mm.
     std::optional<double> Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
                                double max_range) const;
+    /// The hit Cast finds (same distance), with its normal and material.
+    std::optional<RayHit> CastHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                                  double max_range) const;
     /// Box that holds the mesh and the soil.
     Eigen::AlignedBox3d Bounds() const;
 

@@ -79,6 +79,13 @@ double SoilSurface::SurfaceZ(double x, double y) const {
     return std::min(level_z_ + Perturbation(x, y), HeapZ(x, y));
 }
 
+Eigen::Vector3d SoilSurface::Normal(double x, double y) const {
+    constexpr double kStepM = 5e-4;
+    const double dz_dx = (SurfaceZ(x + kStepM, y) - SurfaceZ(x - kStepM, y)) / (2.0 * kStepM);
+    const double dz_dy = (SurfaceZ(x, y + kStepM) - SurfaceZ(x, y - kStepM)) / (2.0 * kStepM);
+    return Eigen::Vector3d(-dz_dx, -dz_dy, 1.0).normalized();
+}
+
 bool SoilSurface::Contains(const Eigen::Vector3d& p) const {
     if (empty_ || std::abs(p.x()) >= half_x_ || std::abs(p.y()) >= half_y_) return false;
     if (p.z() >= max_z_ || p.z() <= container_.InnerSurfaceZ(p.x(), p.y())) return false;

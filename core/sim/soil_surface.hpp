@@ -19,6 +19,8 @@ class SoilSurface {
     bool Empty() const { return empty_; }
     /// Surface height s(x, y) [m], not clipped by the container.
     double SurfaceZ(double x, double y) const;
+    /// Unit upward normal of the surface s at (x, y), by central differences.
+    Eigen::Vector3d Normal(double x, double y) const;
     /// Whether the container-frame point lies inside the soil.
     bool Contains(const Eigen::Vector3d& p) const;
     /// z-range [m] of the top surface where it bounds soil (meaningless when empty).

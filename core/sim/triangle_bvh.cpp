@@ -91,29 +91,45 @@ int TriangleBvh::Build(int first, int count) {
 std::optional<double> TriangleBvh::Intersect(const Eigen::Vector3d& origin,
                                              const Eigen::Vector3d& direction,
                                              double max_range) const {
-    if (triangles_.empty()) return std::nullopt;
-    const Eigen::Vector3d inv_direction = direction.cwiseInverse();
     double best = max_range;
-    bool hit = false;
+    if (FirstHit(origin, direction, &best) < 0) return std::nullopt;
+    return best;
+}
+
+std::optional<TriangleHit> TriangleBvh::IntersectHit(const Eigen::Vector3d& origin,
+                                                     const Eigen::Vector3d& direction,
+                                                     double max_range) const {
+    double best = max_range;
+    const int index = FirstHit(origin, direction, &best);
+    if (index < 0) return std::nullopt;
+    const Triangle& tri = triangles_[index];
+    return TriangleHit{best, tri.e1.cross(tri.e2).normalized()};
+}
+
+int TriangleBvh::FirstHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                          double* best) const {
+    if (triangles_.empty()) return -1;
+    const Eigen::Vector3d inv_direction = direction.cwiseInverse();
+    int hit = -1;
     int stack[64];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
         const Node& node = nodes_[stack[--top]];
-        if (HitBox(node.box, origin, inv_direction, best) > best) continue;  // best shrank
+        if (HitBox(node.box, origin, inv_direction, *best) > *best) continue;  // best shrank
         if (node.count > 0) {
             for (int i = node.first; i < node.first + node.count; ++i) {
                 const double t = HitTriangle(triangles_[i], origin, direction);
-                if (t > 1e-9 && t < best) {
-                    best = t;
-                    hit = true;
+                if (t > 1e-9 && t < *best) {
+                    *best = t;
+                    hit = i;
                 }
             }
             continue;
         }
         // Visit the nearer child first.
-        const double t_left = HitBox(nodes_[node.first].box, origin, inv_direction, best);
-        const double t_right = HitBox(nodes_[node.right].box, origin, inv_direction, best);
+        const double t_left = HitBox(nodes_[node.first].box, origin, inv_direction, *best);
+        const double t_right = HitBox(nodes_[node.right].box, origin, inv_direction, *best);
         const bool left_first = t_left <= t_right;
         const int near_child = left_first ? node.first : node.right;
         const int far_child = left_first ? node.right : node.first;
@@ -122,7 +138,7 @@ std::optional<double> TriangleBvh::Intersect(const Eigen::Vector3d& origin,
             stack[top++] = near_child;
         }
     }
-    return hit ? std::optional<double>(best) : std::nullopt;
+    return hit;
 }
 
 }  // namespace soilvol::sim

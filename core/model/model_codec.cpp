@@ -1,0 +1,241 @@
+#include "core/model/model_codec.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+
+namespace soilvol::model {
+namespace {
+
+constexpr char kMagic[8] = {'S', 'O', 'I', 'L', 'V', 'O', 'L', 'M'};
+constexpr std::size_t kHeaderBytes = sizeof(kMagic) + 4 + 4 + 8;
+constexpr std::size_t kMaxPolygonVertices = 1024;
+
+uint64_t Fnv1a64(std::string_view bytes) {
+    uint64_t hash = 0xcbf29ce484222325ull;
+    for (const char c : bytes) {
+        hash ^= static_cast<uint8_t>(c);
+        hash *= 0x100000001b3ull;
+    }
+    return hash;
+}
+
+// Little-endian writer (the machines we target are little-endian; the layout is fixed anyway).
+class Writer {
+  public:
+    template <typename T>
+    void Put(T value) {
+        char raw[sizeof(T)];
+        std::memcpy(raw, &value, sizeof(T));
+        out_.append(raw, sizeof(T));
+    }
+    void PutCloud(const Cloud& cloud) {
+        Put<uint64_t>(cloud.size());
+        for (const Eigen::Vector3f& p : cloud) {
+            for (int i = 0; i < 3; ++i) Put<float>(p[i]);
+        }
+    }
+    std::string Take() { return std::move(out_); }
+
+  private:
+    std::string out_;
+};
+
+// Bounds-checked reader; every failure is sticky and reported once at the end.
+class Reader {
+  public:
+    explicit Reader(std::string_view bytes) : bytes_(bytes) {}
+
+    template <typename T>
+    T Get() {
+        T value{};
+        if (!Has(sizeof(T))) return value;
+        std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
+        pos_ += sizeof(T);
+        return value;
+    }
+    double GetFinite(const char* field) {
+        const double value = Get<double>();
+        if (!std::isfinite(value)) Fail(absl::StrCat(field, " is not finite"));
+        return value;
+    }
+    Cloud GetCloud(const char* field) {
+        const uint64_t count = Get<uint64_t>();
+        if (!ok() || count > Remaining() / (3 * sizeof(float))) {
+            Fail(absl::StrCat(field, ": point count ", count, " exceeds the payload"));
+            return {};
+        }
+        Cloud cloud(count);
+        for (Eigen::Vector3f& p : cloud) {
+            for (int i = 0; i < 3; ++i) p[i] = Get<float>();
+            if (!p.allFinite()) Fail(absl::StrCat(field, " has a non-finite point"));
+        }
+        return cloud;
+    }
+    bool Has(std::size_t n) {
+        if (ok() && Remaining() >= n) return true;
+        Fail("payload is truncated");
+        return false;
+    }
+    std::size_t Remaining() const { return bytes_.size() - pos_; }
+    void Fail(std::string message) {
+        if (error_.empty()) error_ = std::move(message);
+    }
+    bool ok() const { return error_.empty(); }
+    const std::string& error() const { return error_; }
+
+  private:
+    std::string_view bytes_;
+    std::size_t pos_ = 0;
+    std::string error_;
+};
+
+void PutPose(Writer& w, const Pose& pose) {
+    for (int i = 0; i < 16; ++i) w.Put<double>(pose.matrix().data()[i]);
+}
+
+Pose GetPose(Reader& r) {
+    Eigen::Matrix4d m;
+    for (int i = 0; i < 16; ++i) m.data()[i] = r.GetFinite("pose");
+    const Eigen::Matrix3d rotation = m.topLeftCorner<3, 3>();
+    if ((rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-6 ||
+        rotation.determinant() < 0.0 || m.row(3) != Eigen::RowVector4d(0, 0, 0, 1)) {
+        r.Fail("pose is not a rigid transform");
+    }
+    Pose pose = Pose::Identity();
+    pose.matrix() = m;
+    return pose;
+}
+
+void PutMask(Writer& w, const StructureMask::Columns& g) {
+    w.Put<double>(g.cell_m);
+    w.Put<double>(g.lo.x());
+    w.Put<double>(g.lo.y());
+    w.Put<int32_t>(g.cols);
+    w.Put<int32_t>(g.rows);
+    for (const uint8_t m : g.marked) w.Put<uint8_t>(m);
+}
+
+StructureMask GetMask(Reader& r) {
+    StructureMask::Columns g;
+    g.cell_m = r.GetFinite("mask cell");
+    g.lo.x() = r.GetFinite("mask origin");
+    g.lo.y() = r.GetFinite("mask origin");
+    g.cols = r.Get<int32_t>();
+    g.rows = r.Get<int32_t>();
+    if (!(g.cell_m > 0.0) || g.cols < 0 || g.rows < 0 ||
+        static_cast<uint64_t>(g.cols) * static_cast<uint64_t>(g.rows) > r.Remaining()) {
+        r.Fail("mask grid is inconsistent");
+        return {};
+    }
+    g.marked.resize(static_cast<std::size_t>(g.cols) * static_cast<std::size_t>(g.rows));
+    for (uint8_t& m : g.marked) m = r.Get<uint8_t>();
+    return StructureMask(std::move(g));
+}
+
+std::string EncodePayload(const ContainerModel& model) {
+    Writer w;
+    PutPose(w, model.opening.T_scan_container);
+    const auto& vertices = model.opening.polygon.Vertices();
+    w.Put<uint32_t>(static_cast<uint32_t>(vertices.size()));
+    for (const Eigen::Vector2d& v : vertices) {
+        w.Put<double>(v.x());
+        w.Put<double>(v.y());
+    }
+    w.Put<double>(model.opening.nonplanarity_m);
+    w.Put<double>(model.opening.area_m2);
+    for (const Cloud* cloud : {&model.inside, &model.floor, &model.structure,
+                               &model.alignment_points, &model.alignment_normals}) {
+        w.PutCloud(*cloud);
+    }
+    PutMask(w, model.mask.columns());
+    for (const double value :
+         {model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
+          model.heaped_capacity_iso_m3, model.noise_sigma_m}) {
+        w.Put<double>(value);
+    }
+    w.Put<uint64_t>(model.scan_points);
+    w.Put<uint64_t>(model.outside_points);
+    return w.Take();
+}
+
+absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
+    Reader r(payload);
+    ContainerModel model;
+    model.opening.T_scan_container = GetPose(r);
+    const uint32_t count = r.Get<uint32_t>();
+    if (count < 3 || count > kMaxPolygonVertices) r.Fail("opening polygon vertex count is invalid");
+    std::vector<Eigen::Vector2d> vertices;
+    for (uint32_t i = 0; r.ok() && i < count; ++i) {
+        const double x = r.GetFinite("opening polygon");
+        vertices.emplace_back(x, r.GetFinite("opening polygon"));
+    }
+    model.opening.polygon = Polygon2d(std::move(vertices));
+    model.opening.nonplanarity_m = r.GetFinite("opening nonplanarity");
+    model.opening.area_m2 = r.GetFinite("opening area");
+    model.inside = r.GetCloud("inside");
+    model.floor = r.GetCloud("floor");
+    model.structure = r.GetCloud("structure");
+    model.alignment_points = r.GetCloud("alignment points");
+    model.alignment_normals = r.GetCloud("alignment normals");
+    if (model.alignment_points.size() != model.alignment_normals.size()) {
+        r.Fail("alignment points and normals differ in count");
+    }
+    model.mask = GetMask(r);
+    model.depth_m = r.GetFinite("depth");
+    model.struck_capacity_m3 = r.GetFinite("struck capacity");
+    model.heaped_capacity_sae_m3 = r.GetFinite("heaped capacity (SAE)");
+    model.heaped_capacity_iso_m3 = r.GetFinite("heaped capacity (ISO)");
+    model.noise_sigma_m = r.GetFinite("noise sigma");
+    model.scan_points = r.Get<uint64_t>();
+    model.outside_points = r.Get<uint64_t>();
+    if (r.ok() && r.Remaining() != 0) r.Fail("payload has trailing bytes");
+    if (!r.ok()) return absl::DataLossError(absl::StrCat("container model: ", r.error()));
+    return model;
+}
+
+}  // namespace
+
+std::string EncodeModel(const ContainerModel& model) {
+    const std::string payload = EncodePayload(model);
+    Writer w;
+    for (const char c : kMagic) w.Put<char>(c);
+    w.Put<uint32_t>(kModelCodecVersion);
+    w.Put<uint32_t>(0);
+    w.Put<uint64_t>(payload.size());
+    std::string out = w.Take();
+    out += payload;
+    Writer tail;
+    tail.Put<uint64_t>(Fnv1a64(payload));
+    out += tail.Take();
+    return out;
+}
+
+absl::StatusOr<ContainerModel> DecodeModel(std::string_view bytes) {
+    if (bytes.size() < kHeaderBytes + 8 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0) {
+        return absl::DataLossError("container model: not a soilvol model (bad magic or too short)");
+    }
+    Reader header(bytes.substr(sizeof(kMagic), kHeaderBytes - sizeof(kMagic)));
+    const uint32_t version = header.Get<uint32_t>();
+    header.Get<uint32_t>();
+    const uint64_t size = header.Get<uint64_t>();
+    if (version != kModelCodecVersion) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "container model: version ", version, " (this build reads ", kModelCodecVersion, ")"));
+    }
+    if (size != bytes.size() - kHeaderBytes - 8) {
+        return absl::DataLossError(
+            absl::StrCat("container model: payload size ", size, " does not match the file"));
+    }
+    const std::string_view payload = bytes.substr(kHeaderBytes, size);
+    Reader tail(bytes.substr(kHeaderBytes + size));
+    if (tail.Get<uint64_t>() != Fnv1a64(payload)) {
+        return absl::DataLossError("container model: checksum mismatch (the file is damaged)");
+    }
+    return DecodePayload(payload);
+}
+
+}  // namespace soilvol::model

@@ -1,0 +1,188 @@
+#include "core/stereo/calibration.hpp"
+
+#include <cmath>
+#include <map>
+#include <new>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
+#include "core/stereo/chessboard_detector.hpp"
+#include "core/stereo/opencv_camera.hpp"
+#include "core/stereo/rectification.hpp"
+
+namespace soilvol::stereo {
+namespace {
+
+constexpr std::size_t kFewestPairs = 3;  // below this a planar calibration is not determined
+constexpr int kMaxBoardCorners = 100;    // inner corners along one side
+
+struct StereoFit {
+    StereoParameters parameters;
+    double rms_px = 0.0;
+    cv::Mat per_view_errors;  // N x 2: RMS [px] of each view in the left and right image
+};
+
+absl::Status ValidateInputs(const ChessboardSpec& board, const CalibrationConfig& config) {
+    for (const auto& [name, corners] :
+         {std::pair{"board.cols", board.cols}, std::pair{"board.rows", board.rows}}) {
+        if (corners < 2 || corners > kMaxBoardCorners) {
+            return absl::InvalidArgumentError(
+                absl::StrCat(name, " must be in [2, ", kMaxBoardCorners, "], got ", corners));
+        }
+    }
+    if (!std::isfinite(board.square_size_m) || board.square_size_m <= 0.0) {
+        return absl::InvalidArgumentError("board.square_size_m must be positive and finite");
+    }
+    if (!std::isfinite(config.max_rms_px) || config.max_rms_px <= 0.0) {
+        return absl::InvalidArgumentError("config.max_rms_px must be positive and finite");
+    }
+    if (config.max_image_side_px < detail::kMinImageSidePx ||
+        config.max_image_side_px > detail::kMaxImageSidePx) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("config.max_image_side_px must be in [", detail::kMinImageSidePx, ", ",
+                         detail::kMaxImageSidePx, "], got ", config.max_image_side_px));
+    }
+    return absl::OkStatus();
+}
+
+std::string SkipSummary(const std::vector<SkippedPair>& skipped) {
+    std::map<std::string, int> counts;
+    for (const SkippedPair& pair : skipped) ++counts[pair.reason];
+    std::string summary;
+    for (const auto& [reason, count] : counts) {
+        absl::StrAppend(&summary, summary.empty() ? "" : "; ", count, " x ", reason);
+    }
+    return summary.empty() ? "none" : summary;
+}
+
+std::vector<cv::Point3f> BoardPoints(const ChessboardSpec& board) {
+    std::vector<cv::Point3f> points;
+    const auto square = static_cast<float>(board.square_size_m);
+    for (int r = 0; r < board.rows; ++r) {
+        for (int c = 0; c < board.cols; ++c) {
+            points.emplace_back(static_cast<float>(c) * square, static_cast<float>(r) * square,
+                                0.0f);
+        }
+    }
+    return points;
+}
+
+// Zhang's method for each camera alone, then cv::stereoCalibrate refining both cameras and the
+// pair jointly from those intrinsics (lower RMS than fixing them, same baseline within 0.01%).
+StereoFit FitStereo(const detail::BoardViews& views, const ChessboardSpec& board,
+                    const CalibrationConfig& config) {
+    const std::vector<std::vector<cv::Point3f>> objects(views.left.size(), BoardPoints(board));
+    const int distortion_flags = config.fix_k3 ? cv::CALIB_FIX_K3 : 0;
+    cv::Mat k_left, d_left, k_right, d_right, rotation, translation, essential, fundamental;
+    std::vector<cv::Mat> rvecs, tvecs;
+    cv::calibrateCamera(objects, views.left, views.image_size, k_left, d_left, rvecs, tvecs,
+                        distortion_flags);
+    cv::calibrateCamera(objects, views.right, views.image_size, k_right, d_right, rvecs, tvecs,
+                        distortion_flags);
+    StereoFit fit;
+    fit.rms_px = cv::stereoCalibrate(
+        objects, views.left, views.right, k_left, d_left, k_right, d_right, views.image_size,
+        rotation, translation, essential, fundamental, fit.per_view_errors,
+        cv::CALIB_USE_INTRINSIC_GUESS | distortion_flags,
+        cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
+    fit.parameters.image_width = views.image_size.width;
+    fit.parameters.image_height = views.image_size.height;
+    fit.parameters.left = detail::ToIntrinsics(k_left, d_left);
+    fit.parameters.right = detail::ToIntrinsics(k_right, d_right);
+    cv::cv2eigen(rotation, fit.parameters.R_right_left);
+    cv::cv2eigen(translation, fit.parameters.t_right_left_m);
+    return fit;
+}
+
+// Mean |y_left - y_right| [px] of one view's corners after undistortion and rectification.
+double EpipolarError(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right,
+                     const StereoCalibration& calibration) {
+    cv::Mat r1, r2, p1, p2;
+    cv::eigen2cv(calibration.R1, r1);
+    cv::eigen2cv(calibration.R2, r2);
+    cv::eigen2cv(calibration.P1, p1);
+    cv::eigen2cv(calibration.P2, p2);
+    std::vector<cv::Point2f> rectified_left, rectified_right;
+    const StereoParameters& parameters = calibration.parameters;
+    const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-6);
+    cv::undistortPoints(left, rectified_left, detail::CameraMatrix(parameters.left),
+                        detail::DistortionRow(parameters.left), r1, p1, criteria);
+    cv::undistortPoints(right, rectified_right, detail::CameraMatrix(parameters.right),
+                        detail::DistortionRow(parameters.right), r2, p2, criteria);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < left.size(); ++i) {
+        sum += std::abs(static_cast<double>(rectified_left[i].y - rectified_right[i].y));
+    }
+    return sum / static_cast<double>(left.size());
+}
+
+void FillPairFigures(const detail::BoardViews& views, const StereoFit& fit,
+                     StereoCalibration* calibration) {
+    double epipolar_sum = 0.0;
+    for (std::size_t i = 0; i < views.indices.size(); ++i) {
+        const int row = static_cast<int>(i);
+        const double left = fit.per_view_errors.at<double>(row, 0);
+        const double right = fit.per_view_errors.at<double>(row, 1);
+        PairError pair{views.indices[i], std::sqrt(0.5 * (left * left + right * right)),
+                       EpipolarError(views.left[i], views.right[i], *calibration)};
+        epipolar_sum += pair.epipolar_px;
+        calibration->pairs.push_back(pair);
+    }
+    calibration->mean_epipolar_px = epipolar_sum / static_cast<double>(views.indices.size());
+}
+
+absl::StatusOr<StereoCalibration> Calibrate(const std::vector<ImagePair>& pairs,
+                                            const ChessboardSpec& board,
+                                            const CalibrationConfig& config) {
+    SOILVOL_ASSIGN_OR_RETURN(detail::BoardViews views,
+                             detail::DetectBoards(pairs, board, config.max_image_side_px));
+    const std::size_t needed = std::max(config.min_pairs, kFewestPairs);
+    if (views.indices.size() < needed) {
+        return absl::FailedPreconditionError(
+            absl::StrCat(views.indices.size(), " usable chessboard pairs of ", pairs.size(), ", ",
+                         needed, " needed; skipped: ", SkipSummary(views.skipped)));
+    }
+    const StereoFit fit = FitStereo(views, board, config);
+    if (!(fit.rms_px <= config.max_rms_px)) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "stereo reprojection RMS ", fit.rms_px, " px exceeds max_rms_px ", config.max_rms_px));
+    }
+    absl::StatusOr<StereoCalibration> calibration = detail::Rectify(fit.parameters);
+    if (!calibration.ok()) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "the chessboards gave unusable parameters: ", calibration.status().message()));
+    }
+    calibration->rms_reprojection_px = fit.rms_px;
+    FillPairFigures(views, fit, &*calibration);
+    calibration->skipped = std::move(views.skipped);
+    calibration->source = "chessboard";
+    return calibration;
+}
+
+}  // namespace
+
+absl::StatusOr<StereoCalibration> CalibrateFromChessboards(const std::vector<ImagePair>& pairs,
+                                                           const ChessboardSpec& board,
+                                                           const CalibrationConfig& config) {
+    SOILVOL_RETURN_IF_ERROR(ValidateInputs(board, config));
+    try {
+        return Calibrate(pairs, board, config);
+    } catch (const cv::Exception& e) {
+        return absl::InternalError(absl::StrCat("chessboard calibration failed: ", e.what()));
+    } catch (const std::bad_alloc&) {
+        return absl::ResourceExhaustedError("chessboard calibration: out of memory");
+    } catch (const std::exception& e) {
+        return absl::InternalError(absl::StrCat("chessboard calibration failed: ", e.what()));
+    }
+}
+
+absl::StatusOr<StereoCalibration> CalibrationFromParameters(const StereoParameters& parameters) {
+    SOILVOL_ASSIGN_OR_RETURN(StereoCalibration calibration, detail::Rectify(parameters));
+    calibration.source = "parameters";
+    return calibration;
+}
+
+}  // namespace soilvol::stereo
