@@ -20,7 +20,8 @@ stereo::PixelRect ModelRegion(const model::ContainerModel& model,
     const int side = std::max(tight.u1 - tight.u0, tight.v1 - tight.v0);
     const int margin = std::max(config.region_margin_px,
                                 static_cast<int>(std::ceil(config.region_margin_share * side)));
-    return stereo.RegionOf(points, T_scan_container, margin);
+    const StereoParameters& p = stereo.calibration().parameters;
+    return tight.Grown(margin, p.image_width, p.image_height);
 }
 
 }  // namespace

@@ -38,13 +38,10 @@ absl::Status CheckImage(const GreyImage& image, const char* name) {
 // columns the search range reaches into.
 cv::Rect Matched(PixelRect region, const SgbmConfig& config, int width, int height) {
     if (region.Empty()) return {0, 0, width, height};
-    const int margin = config.block_size / 2 + 8;
+    const PixelRect grown = region.Grown(config.block_size / 2 + 8, width, height);
     const int reach = config.min_disparity + config.num_disparities;
-    const int u0 = std::clamp(region.u0 - margin - std::max(reach, 0), 0, width);
-    const int u1 = std::clamp(region.u1 + margin, 0, width);
-    const int v0 = std::clamp(region.v0 - margin, 0, height);
-    const int v1 = std::clamp(region.v1 + margin, 0, height);
-    return {u0, v0, u1 - u0, v1 - v0};
+    const int u0 = std::max(grown.u0 - std::max(reach, 0), 0);
+    return {u0, grown.v0, grown.u1 - u0, grown.v1 - grown.v0};
 }
 
 }  // namespace

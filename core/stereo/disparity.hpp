@@ -47,6 +47,12 @@ struct PixelRect {
     int u1 = 0;
     int v1 = 0;
     bool Empty() const { return u1 <= u0 || v1 <= v0; }
+    /// This rectangle grown by margin_px on every side and clipped to a width x height image.
+    PixelRect Grown(int margin_px, int width, int height) const {
+        const auto clip = [](int value, int hi) { return value < 0 ? 0 : value > hi ? hi : value; };
+        return {clip(u0 - margin_px, width), clip(v0 - margin_px, height),
+                clip(u1 + margin_px, width), clip(v1 + margin_px, height)};
+    }
 };
 
 /// InvalidArgument naming the field for out-of-range SGBM parameters.

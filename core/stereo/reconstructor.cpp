@@ -211,13 +211,11 @@ PixelRect StereoReconstructor::RegionOf(const Cloud& points, const Pose& T_recti
     }
     if (box.isEmpty()) return {};
     const StereoParameters& p = impl_->calibration.parameters;
-    const auto clamp = [](double value, int hi) {
-        return static_cast<int>(std::clamp(value, 0.0, static_cast<double>(hi)));
-    };
-    PixelRect rect{clamp(std::floor(box.min().x()) - margin_px, p.image_width),
-                   clamp(std::floor(box.min().y()) - margin_px, p.image_height),
-                   clamp(std::ceil(box.max().x()) + margin_px + 1, p.image_width),
-                   clamp(std::ceil(box.max().y()) + margin_px + 1, p.image_height)};
+    const PixelRect tight{static_cast<int>(std::max(std::floor(box.min().x()), -1e6)),
+                          static_cast<int>(std::max(std::floor(box.min().y()), -1e6)),
+                          static_cast<int>(std::min(std::ceil(box.max().x()) + 1, 1e6)),
+                          static_cast<int>(std::min(std::ceil(box.max().y()) + 1, 1e6))};
+    const PixelRect rect = tight.Grown(margin_px, p.image_width, p.image_height);
     return rect.Empty() ? PixelRect{} : rect;
 }
 
