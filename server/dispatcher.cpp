@@ -1,0 +1,97 @@
+#include "server/dispatcher.hpp"
+
+#include <cmath>
+#include <memory>
+
+#include "absl/strings/str_cat.h"
+#include "server/logging.hpp"
+#include "server/status_map.hpp"
+
+namespace soilvol::server {
+namespace {
+
+double MsSince(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::string IdsText(const CallRecord& record) {
+    std::string text;
+    for (const auto& [key, value] : record.ids) {
+        absl::StrAppend(&text, text.empty() ? "" : " ", key, "=", value);
+    }
+    return text;
+}
+
+}  // namespace
+
+Dispatcher::Dispatcher(WorkerPool& pool, Metrics& metrics) : pool_(pool), metrics_(metrics) {}
+
+void Dispatcher::Submit(CallContext context, Work work, Done done) {
+    // The task owns everything it needs; whichever of run/reject fires consumes it.
+    auto state = std::make_shared<std::tuple<CallContext, Work, Done>>(
+        std::move(context), std::move(work), std::move(done));
+    WorkerPool::Task task;
+    task.run = [this, state] {
+        auto& [ctx, run_work, run_done] = *state;
+        CallRecord record;
+        record.queue_ms = MsSince(ctx.received);
+        metrics_.SetLoad(static_cast<double>(pool_.running()), static_cast<double>(pool_.queued()));
+        absl::Status status;
+        if (Clock::now() >= ctx.deadline) {
+            status = absl::DeadlineExceededError(
+                absl::StrCat("deadline expired after ", static_cast<long long>(record.queue_ms),
+                             " ms waiting for a worker"));
+        } else if (ctx.cancelled && ctx.cancelled()) {
+            status = absl::CancelledError("the caller cancelled the call while it waited");
+        } else {
+            status = run_work(record);
+            if (status.ok() && Clock::now() > ctx.deadline) {
+                status = absl::DeadlineExceededError(
+                    absl::StrCat("deadline expired while computing (",
+                                 static_cast<long long>(MsSince(ctx.received)), " ms)"));
+            }
+        }
+        Finish(ctx, record, status, run_done);
+    };
+    task.reject = [this, state] {
+        auto& [ctx, run_work, run_done] = *state;
+        Finish(ctx, CallRecord{}, absl::UnavailableError("the server is shutting down"), run_done);
+    };
+    if (!pool_.TrySubmit(task)) {
+        auto& [ctx, run_work, run_done] = *state;
+        Finish(ctx, CallRecord{},
+               absl::ResourceExhaustedError(
+                   absl::StrCat("server busy: all ", pool_.workers(), " workers are busy and ",
+                                pool_.max_queue(), " requests are waiting; retry later")),
+               run_done);
+    }
+    metrics_.SetLoad(static_cast<double>(pool_.running()), static_cast<double>(pool_.queued()));
+}
+
+void Dispatcher::Refuse(const CallContext& context, const absl::Status& status) {
+    Finish(context, CallRecord{}, status, [](const absl::Status&) {});
+}
+
+void Dispatcher::Finish(const CallContext& context, const CallRecord& record,
+                        const absl::Status& status, const Done& done) {
+    const double total_ms = MsSince(context.received);
+    metrics_.RecordRequest(context.method, context.transport, status.code(), total_ms / 1000.0);
+    if (record.queue_ms > 0.0) metrics_.RecordStage("queue", record.queue_ms / 1000.0);
+    for (const auto& [stage, ms] : record.stages_ms) metrics_.RecordStage(stage, ms / 1000.0);
+    const LogLevel level = status.ok()                           ? LogLevel::kInfo
+                           : HttpStatusFor(status.code()) >= 500 ? LogLevel::kError
+                                                                 : LogLevel::kWarn;
+    LogEvent(level, "request",
+             {{"method", context.method},
+              {"transport", context.transport},
+              {"peer", context.peer},
+              {"ids", IdsText(record)},
+              {"status", CodeName(status.code())},
+              {"ms", total_ms},
+              {"queue_ms", record.queue_ms},
+              {"volume_m3", record.volume_m3.value_or(std::nan(""))},
+              {"error", status.message()}});
+    done(status);
+}
+
+}  // namespace soilvol::server

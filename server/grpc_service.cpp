@@ -1,0 +1,124 @@
+#include "server/grpc_service.hpp"
+
+#include <string>
+
+namespace soilvol::server {
+namespace {
+
+/// StreamEstimates: reads one scan, estimates it on the pool, writes the answer, reads the
+/// next. One scan in flight per stream keeps the order and lets slow clients push back.
+class EstimateStream final
+    : public grpc::ServerBidiReactor<v1::EstimateVolumeRequest, v1::StreamEstimatesResponse> {
+  public:
+    EstimateStream(grpc::CallbackServerContext* context, SoilVolumeHandlers& handlers,
+                   Dispatcher& dispatcher)
+        : context_(context), handlers_(handlers), dispatcher_(dispatcher) {
+        StartRead(&request_);
+    }
+
+    void OnReadDone(bool ok) override {
+        if (!ok) {  // the client half-closed (or went away): every answer is written
+            Finish(grpc::Status::OK);
+            return;
+        }
+        response_.Clear();
+        response_.set_sequence(sequence_++);
+        response_.set_request_id(request_.request_id());
+        dispatcher_.Submit(
+            GrpcCallContext(context_, "StreamEstimates"),
+            [this](CallRecord& record) {
+                return handlers_.EstimateVolume(request_, response_.mutable_estimate(), record);
+            },
+            [this](const absl::Status& status) {
+                if (!status.ok()) {
+                    v1::Error* error = response_.mutable_error();
+                    error->set_code(static_cast<int>(status.code()));
+                    error->set_message(std::string(status.message()));
+                }
+                StartWrite(&response_);
+            });
+    }
+
+    void OnWriteDone(bool ok) override {
+        if (!ok) {
+            Finish(grpc::Status(grpc::StatusCode::CANCELLED, "the stream broke while writing"));
+            return;
+        }
+        StartRead(&request_);
+    }
+
+    void OnDone() override { delete this; }
+
+  private:
+    grpc::CallbackServerContext* context_;
+    SoilVolumeHandlers& handlers_;
+    Dispatcher& dispatcher_;
+    v1::EstimateVolumeRequest request_;
+    v1::StreamEstimatesResponse response_;
+    int64_t sequence_ = 0;
+};
+
+}  // namespace
+
+grpc::Status ToGrpcStatus(const absl::Status& status) {
+    if (status.ok()) return grpc::Status::OK;
+    return grpc::Status(static_cast<grpc::StatusCode>(status.code()),
+                        std::string(status.message()));
+}
+
+CallContext GrpcCallContext(grpc::CallbackServerContext* context, const char* method) {
+    CallContext call;
+    call.method = method;
+    call.transport = "grpc";
+    call.peer = context->peer();
+    // A deadline more than a day away is no deadline (gRPC reports "none" as the far future).
+    const auto left = context->deadline() - std::chrono::system_clock::now();
+    if (left < std::chrono::hours(24)) {
+        call.deadline = call.received + std::chrono::duration_cast<Clock::duration>(left);
+    }
+    call.cancelled = [context] { return context->IsCancelled(); };
+    return call;
+}
+
+SoilVolumeService::SoilVolumeService(SoilVolumeHandlers& handlers, Dispatcher& dispatcher)
+    : handlers_(handlers), dispatcher_(dispatcher) {}
+
+template <typename Request, typename Response>
+grpc::ServerUnaryReactor* SoilVolumeService::Unary(
+    grpc::CallbackServerContext* context, const char* method, const Request* request,
+    Response* response,
+    absl::Status (SoilVolumeHandlers::*handler)(const Request&, Response*, CallRecord&)) {
+    grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+    dispatcher_.Submit(
+        GrpcCallContext(context, method),
+        [this, request, response, handler](CallRecord& record) {
+            return (handlers_.*handler)(*request, response, record);
+        },
+        [reactor](const absl::Status& status) { reactor->Finish(ToGrpcStatus(status)); });
+    return reactor;
+}
+
+#define SOILVOL_UNARY_RPC(Name, Request, Response)                                          \
+    grpc::ServerUnaryReactor* SoilVolumeService::Name(grpc::CallbackServerContext* context, \
+                                                      const v1::Request* request,           \
+                                                      v1::Response* response) {             \
+        return Unary(context, #Name, request, response, &SoilVolumeHandlers::Name);         \
+    }
+
+SOILVOL_UNARY_RPC(Calibrate, CalibrateRequest, Calibration)
+SOILVOL_UNARY_RPC(GetCalibration, GetCalibrationRequest, Calibration)
+SOILVOL_UNARY_RPC(ListCalibrations, ListCalibrationsRequest, ListCalibrationsResponse)
+SOILVOL_UNARY_RPC(DeleteCalibration, DeleteCalibrationRequest, DeleteCalibrationResponse)
+SOILVOL_UNARY_RPC(RegisterContainer, RegisterContainerRequest, Container)
+SOILVOL_UNARY_RPC(GetContainer, GetContainerRequest, Container)
+SOILVOL_UNARY_RPC(ListContainers, ListContainersRequest, ListContainersResponse)
+SOILVOL_UNARY_RPC(DeleteContainer, DeleteContainerRequest, DeleteContainerResponse)
+SOILVOL_UNARY_RPC(EstimateVolume, EstimateVolumeRequest, EstimateVolumeResponse)
+#undef SOILVOL_UNARY_RPC
+
+grpc::ServerBidiReactor<v1::EstimateVolumeRequest, v1::StreamEstimatesResponse>*
+SoilVolumeService::StreamEstimates(grpc::CallbackServerContext* context) {
+    return new EstimateStream(context, handlers_, dispatcher_);
+}
+
+}  // namespace soilvol::server

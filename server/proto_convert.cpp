@@ -1,0 +1,191 @@
+#include "server/proto_convert.hpp"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+
+namespace soilvol::server {
+namespace {
+
+absl::Status Invalid(const std::string& field, const std::string& problem) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": ", problem));
+}
+
+CameraIntrinsics ToIntrinsics(const v1::CameraIntrinsics& proto) {
+    CameraIntrinsics camera;
+    camera.fx = proto.fx();
+    camera.fy = proto.fy();
+    camera.cx = proto.cx();
+    camera.cy = proto.cy();
+    camera.distortion.assign(proto.distortion().begin(), proto.distortion().end());
+    return camera;
+}
+
+void ToProto(const CameraIntrinsics& camera, v1::CameraIntrinsics* proto) {
+    proto->set_fx(camera.fx);
+    proto->set_fy(camera.fy);
+    proto->set_cx(camera.cx);
+    proto->set_cy(camera.cy);
+    for (const double k : camera.distortion) proto->add_distortion(k);
+}
+
+v1::Point3* AddPoint(const Eigen::Vector3d& p,
+                     google::protobuf::RepeatedPtrField<v1::Point3>* out) {
+    v1::Point3* point = out->Add();
+    point->set_x(p.x());
+    point->set_y(p.y());
+    point->set_z(p.z());
+    return point;
+}
+
+}  // namespace
+
+absl::StatusOr<StereoParameters> ToStereoParameters(const v1::StereoParameters& proto,
+                                                    const std::string& field) {
+    if (!proto.has_left()) return Invalid(field + ".left", "is required");
+    if (!proto.has_right()) return Invalid(field + ".right", "is required");
+    if (proto.rotation_size() != 9) {
+        return Invalid(field + ".rotation",
+                       absl::StrCat("needs 9 values (row-major 3x3), got ", proto.rotation_size()));
+    }
+    if (proto.translation_m_size() != 3) {
+        return Invalid(field + ".translation_m",
+                       absl::StrCat("needs 3 values, got ", proto.translation_m_size()));
+    }
+    StereoParameters parameters;
+    parameters.image_width = proto.image_width();
+    parameters.image_height = proto.image_height();
+    parameters.left = ToIntrinsics(proto.left());
+    parameters.right = ToIntrinsics(proto.right());
+    for (int i = 0; i < 9; ++i) parameters.R_right_left(i / 3, i % 3) = proto.rotation(i);
+    for (int i = 0; i < 3; ++i) parameters.t_right_left_m(i) = proto.translation_m(i);
+    return parameters;
+}
+
+absl::StatusOr<stereo::ChessboardSpec> ToChessboardSpec(const v1::ChessboardCalibration& proto) {
+    if (!proto.has_inner_corners()) {
+        return Invalid("chessboard.inner_corners", "is required ({cols, rows} of inner corners)");
+    }
+    if (proto.pairs_size() == 0) return Invalid("chessboard.pairs", "is empty");
+    stereo::ChessboardSpec spec;
+    spec.cols = proto.inner_corners().cols();
+    spec.rows = proto.inner_corners().rows();
+    spec.square_size_m = proto.square_size_m();
+    if (spec.cols < 2 || spec.rows < 2 || spec.cols > 100 || spec.rows > 100) {
+        return Invalid(
+            "chessboard.inner_corners",
+            absl::StrCat("cols and rows must be in [2, 100], got ", spec.cols, " x ", spec.rows));
+    }
+    if (!std::isfinite(spec.square_size_m) || spec.square_size_m <= 0.0 ||
+        spec.square_size_m > 10.0) {
+        return Invalid("chessboard.square_size_m", "must be in (0, 10] metres");
+    }
+    return spec;
+}
+
+absl::StatusOr<pipeline::OpeningMarks> ToOpeningMarks(const v1::Opening& proto, bool stereo_scan) {
+    const int corners = proto.corners_size();
+    const int pixels = proto.pixel_corners_size();
+    if ((corners == 0) == (pixels == 0)) {
+        return Invalid("opening", "give either corners (3D) or pixel_corners, exactly one of them");
+    }
+    if (pixels > 0) {
+        if (!stereo_scan) {
+            return Invalid("opening.pixel_corners", "need a stereo scan; give corners for a cloud");
+        }
+        if (pixels != 4) {
+            return Invalid("opening.pixel_corners", absl::StrCat("needs 4 corners, got ", pixels));
+        }
+        stereo::PixelCorners marks;
+        for (int i = 0; i < 4; ++i) {
+            marks[i] = {proto.pixel_corners(i).u(), proto.pixel_corners(i).v()};
+            if (!marks[i].allFinite()) {
+                return Invalid(absl::StrCat("opening.pixel_corners[", i, "]"), "is not finite");
+            }
+        }
+        return marks;
+    }
+    if (corners != 4)
+        return Invalid("opening.corners", absl::StrCat("needs 4 corners, got ", corners));
+    Corners marks;
+    for (int i = 0; i < 4; ++i) {
+        marks[i] = {proto.corners(i).x(), proto.corners(i).y(), proto.corners(i).z()};
+        if (!marks[i].allFinite()) {
+            return Invalid(absl::StrCat("opening.corners[", i, "]"), "is not finite");
+        }
+    }
+    return marks;
+}
+
+void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto) {
+    proto->set_image_width(parameters.image_width);
+    proto->set_image_height(parameters.image_height);
+    ToProto(parameters.left, proto->mutable_left());
+    ToProto(parameters.right, proto->mutable_right());
+    proto->clear_rotation();
+    proto->clear_translation_m();
+    for (int i = 0; i < 9; ++i) proto->add_rotation(parameters.R_right_left(i / 3, i % 3));
+    for (int i = 0; i < 3; ++i) proto->add_translation_m(parameters.t_right_left_m(i));
+}
+
+void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto) {
+    proto->set_source(calibration.source == "chessboard" ? v1::CALIBRATION_SOURCE_CHESSBOARD
+                                                         : v1::CALIBRATION_SOURCE_PARAMETERS);
+    proto->set_image_width(calibration.parameters.image_width);
+    proto->set_image_height(calibration.parameters.image_height);
+    proto->set_baseline_m(calibration.baseline_m);
+    proto->set_focal_length_px(calibration.focal_px);
+    proto->set_rms_reprojection_error_px(calibration.rms_reprojection_px);
+    proto->set_mean_epipolar_error_px(calibration.mean_epipolar_px);
+    proto->set_pairs_used(static_cast<int>(calibration.pairs.size()));
+    proto->clear_skipped_pairs();
+    for (const stereo::SkippedPair& skipped : calibration.skipped) {
+        v1::SkippedPair* out = proto->add_skipped_pairs();
+        out->set_index(skipped.index);
+        out->set_reason(skipped.reason);
+    }
+    ToProto(calibration.parameters, proto->mutable_parameters());
+}
+
+void ToProto(const model::ContainerModel& model, v1::Container* proto) {
+    proto->set_struck_capacity_m3(model.struck_capacity_m3);
+    proto->set_heaped_capacity_m3(model.heaped_capacity_sae_m3);
+    proto->set_heaped_capacity_iso_m3(model.heaped_capacity_iso_m3);
+    proto->set_opening_area_m2(model.opening.area_m2);
+    proto->set_depth_m(model.depth_m);
+    proto->set_noise_sigma_m(model.noise_sigma_m);
+    proto->clear_opening_corners();
+    for (const Eigen::Vector2d& corner : model.opening.polygon.Vertices()) {
+        AddPoint(model.opening.T_scan_container * Eigen::Vector3d(corner.x(), corner.y(), 0.0),
+                 proto->mutable_opening_corners());
+    }
+    proto->set_scan_points(static_cast<int64_t>(model.scan_points));
+    proto->set_alignment_points(static_cast<int64_t>(model.alignment_points.size()));
+}
+
+void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto) {
+    proto->set_volume_m3(estimate.volume_m3);
+    proto->set_fill_ratio(estimate.fill_ratio_struck);
+    proto->set_fill_ratio_heaped(estimate.fill_ratio_heaped);
+    proto->set_uncertainty_m3(estimate.uncertainty_m3);
+    v1::Alignment* alignment = proto->mutable_alignment();
+    alignment->set_fitness(estimate.alignment.fitness);
+    alignment->set_rmse_m(estimate.alignment.rmse_m);
+    alignment->set_converged(estimate.alignment.converged);
+    alignment->set_iterations(estimate.alignment.iterations);
+    alignment->set_correspondences(static_cast<int64_t>(estimate.alignment.correspondences));
+    v1::CellCounts* cells = proto->mutable_cells();
+    cells->set_cell_m(estimate.volume.grid.cell_m);
+    cells->set_total(estimate.volume.cells.total);
+    cells->set_measured(estimate.volume.cells.measured);
+    cells->set_interpolated(estimate.volume.cells.interpolated);
+    cells->set_with_soil(estimate.volume.cells.with_soil);
+    v1::Timings* timings = proto->mutable_timings();
+    timings->set_preprocess_ms(estimate.timings.range_ms + estimate.timings.outliers_ms);
+    timings->set_align_ms(estimate.timings.align_ms);
+    timings->set_volume_ms(estimate.timings.volume_ms);
+    proto->set_scan_points(static_cast<int64_t>(estimate.input_points));
+    proto->set_used_points(static_cast<int64_t>(estimate.preprocessed_points));
+}
+
+}  // namespace soilvol::server

@@ -1,0 +1,31 @@
+#pragma once
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "core/common/camera.hpp"
+#include "core/common/types.hpp"
+#include "core/model/container_model.hpp"
+#include "core/pipeline/stereo_estimator.hpp"
+#include "core/stereo/calibration.hpp"
+#include "soilvol/v1/soilvol.pb.h"
+
+namespace soilvol::server {
+
+/// Proto -> core, with InvalidArgument naming the field (`field` is its path in the request,
+/// e.g. "parameters.left.fx") for counts and values the core cannot take.
+absl::StatusOr<StereoParameters> ToStereoParameters(const v1::StereoParameters& proto,
+                                                    const std::string& field);
+absl::StatusOr<stereo::ChessboardSpec> ToChessboardSpec(const v1::ChessboardCalibration& proto);
+/// Exactly four 3D corners or four pixel corners; pixel corners only when `stereo_scan`.
+absl::StatusOr<pipeline::OpeningMarks> ToOpeningMarks(const v1::Opening& proto, bool stereo_scan);
+
+/// Core -> proto.
+void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto);
+void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto);
+/// The model's figures; ids, provenance and time are the caller's.
+void ToProto(const model::ContainerModel& model, v1::Container* proto);
+/// The estimate's figures into `proto` (stereo timings separately, by the caller).
+void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto);
+
+}  // namespace soilvol::server

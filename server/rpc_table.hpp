@@ -1,0 +1,27 @@
+#pragma once
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "absl/status/status.h"
+#include "google/protobuf/message.h"
+#include "server/dispatcher.hpp"
+#include "server/soilvol_handlers.hpp"
+
+namespace soilvol::server {
+
+/// One RPC with its messages erased, for the REST gateway.
+struct Rpc {
+    std::function<std::unique_ptr<google::protobuf::Message>()> new_request;
+    std::function<std::unique_ptr<google::protobuf::Message>()> new_response;
+    std::function<absl::Status(const google::protobuf::Message&, google::protobuf::Message*,
+                               CallRecord&)>
+        call;
+};
+
+/// Every unary RPC of soilvol.v1.SoilVolume by name ("EstimateVolume"), calling `handlers`.
+std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& handlers);
+
+}  // namespace soilvol::server

@@ -1,0 +1,57 @@
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace soilvol::server {
+
+/// A fixed set of threads with a bounded queue. A task is accepted only when a worker is idle
+/// or the queue has room, so a busy server refuses at once instead of piling up work.
+class WorkerPool {
+  public:
+    /// One unit of work: `run` on a worker, or `reject` (on the shutting-down thread) when the
+    /// pool stops before the task started. Exactly one of the two is called.
+    struct Task {
+        std::function<void()> run;
+        std::function<void()> reject;
+    };
+
+    WorkerPool(int workers, int max_queue);
+    ~WorkerPool();
+    WorkerPool(const WorkerPool&) = delete;
+    WorkerPool& operator=(const WorkerPool&) = delete;
+
+    /// False (and the task untouched) when all workers are busy and max_queue tasks wait, or
+    /// the pool is stopping.
+    bool TrySubmit(Task& task);
+
+    /// Stops accepting, lets queued and running tasks finish for up to `grace`, then rejects
+    /// what is still queued and joins the workers once the running tasks return. True when
+    /// nothing had to be rejected.
+    bool Shutdown(std::chrono::milliseconds grace);
+
+    std::size_t queued() const;
+    std::size_t running() const;
+    int workers() const { return static_cast<int>(threads_.size()); }
+    std::size_t max_queue() const { return max_queue_; }
+
+  private:
+    void Loop();
+
+    const std::size_t max_queue_;
+    mutable std::mutex mutex_;
+    std::condition_variable work_ready_;
+    std::condition_variable idle_;
+    std::deque<Task> queue_;
+    std::size_t running_ = 0;
+    bool stopping_ = false;
+    std::vector<std::thread> threads_;
+};
+
+}  // namespace soilvol::server
