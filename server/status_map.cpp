@@ -123,7 +123,8 @@ std::string JsonQuote(std::string_view text) {
 
 std::string ErrorJson(const absl::Status& status) {
     return absl::StrCat("{\"code\":", static_cast<int>(status.code()),
-                        ",\"message\":", JsonQuote(std::string(status.message())), ",\"details\":[]}");
+                        ",\"message\":", JsonQuote(std::string(status.message())),
+                        ",\"details\":[]}");
 }
 
 }  // namespace soilvol::server

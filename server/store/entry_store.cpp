@@ -1,0 +1,189 @@
+#include "server/store/entry_store.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <system_error>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
+#include "core/common/status_macros.hpp"
+#include "server/store/absl_view.hpp"
+#include "server/store/entry_id.hpp"
+#include "server/store/posix_io.hpp"
+#include "server/store/temp_file.hpp"
+
+namespace soilvol::server {
+namespace {
+
+constexpr absl::string_view kEntrySuffix = ".entry";
+constexpr std::string_view kProbeId = "probe";
+
+std::string Label(EntryKind kind, std::string_view id) {
+    return absl::StrCat(AbslView(KindName(kind)), " '", AbslView(id), "'");
+}
+
+std::string IdField(EntryKind kind) { return absl::StrCat(AbslView(KindName(kind)), " id"); }
+
+FileStamp StampOf(const struct stat& st) {
+    return FileStamp{static_cast<uint64_t>(st.st_dev), static_cast<uint64_t>(st.st_ino),
+                     static_cast<uint64_t>(st.st_size),
+                     static_cast<int64_t>(st.st_mtim.tv_sec) * 1'000'000'000 + st.st_mtim.tv_nsec};
+}
+
+absl::Status PrepareFolder(const std::string& path) {
+    if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST) {
+        return absl::FailedPreconditionError(ErrnoStatus(errno, "cannot create", path).message());
+    }
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0) {
+        return absl::FailedPreconditionError(ErrnoStatus(errno, "cannot stat", path).message());
+    }
+    if (!S_ISDIR(st.st_mode)) {
+        return absl::FailedPreconditionError(absl::StrCat(path, " is not a directory"));
+    }
+    return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<EntryStore>> EntryStore::Open(const std::filesystem::path& root,
+                                                             const EntryStoreConfig& config) {
+    std::error_code ec;
+    std::filesystem::create_directories(root, ec);
+    if (ec) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("cannot create data directory ", root.string(), ": ", ec.message()));
+    }
+    SOILVOL_RETURN_IF_ERROR(PrepareFolder(root.string()));
+    std::unique_ptr<EntryStore> store(new EntryStore(root));
+    for (const EntryKind kind : {EntryKind::kCalibration, EntryKind::kContainer}) {
+        SOILVOL_RETURN_IF_ERROR(PrepareFolder(store->Folder(kind)));
+    }
+    if (const absl::Status writable = store->CheckWritable(); !writable.ok()) {
+        return absl::FailedPreconditionError(writable.message());
+    }
+    for (const EntryKind kind : {EntryKind::kCalibration, EntryKind::kContainer}) {
+        RemoveStaleTempFiles(store->Folder(kind), config.stale_temp_age);
+    }
+    return store;
+}
+
+absl::Status EntryStore::Put(EntryKind kind, std::string_view id, std::string_view payload,
+                             bool overwrite) {
+    SOILVOL_RETURN_IF_ERROR(ValidateId(id, IdField(kind)));
+    if (payload.size() > kMaxEntryPayloadBytes) {
+        return absl::InvalidArgumentError(absl::StrCat(Label(kind, id), " is ", payload.size(),
+                                                       " bytes, more than the limit of ",
+                                                       kMaxEntryPayloadBytes));
+    }
+    const std::string target = EntryPath(kind, id);
+    const absl::Status exists = absl::AlreadyExistsError(Label(kind, id) + " already exists");
+    struct stat st;
+    // A cheap early answer; link(2) below decides races.
+    if (!overwrite && ::lstat(target.c_str(), &st) == 0) return exists;
+
+    // Write and fsync a temp file next to the target, publish it, fsync the folder.
+    const EntryEnvelope envelope = EnvelopeFor(kind, payload);
+    SOILVOL_ASSIGN_OR_RETURN(
+        const std::string temp,
+        WriteTempFile(Folder(kind), id, {envelope.header, payload, envelope.trailer}));
+    // Publish: rename(2) replaces atomically; link(2) fails with EEXIST when the id exists.
+    const int published =
+        overwrite ? ::rename(temp.c_str(), target.c_str()) : ::link(temp.c_str(), target.c_str());
+    const int publish_error = published == 0 ? 0 : errno;
+    if (publish_error != 0 || !overwrite) ::unlink(temp.c_str());
+    if (publish_error == EEXIST && !overwrite) return exists;
+    if (publish_error != 0) {
+        return ErrnoStatus(publish_error, "cannot publish", target);
+    }
+    return SyncDirectory(Folder(kind));
+}
+
+absl::StatusOr<StoredEntry> EntryStore::Get(EntryKind kind, std::string_view id) const {
+    SOILVOL_RETURN_IF_ERROR(ValidateId(id, IdField(kind)));
+    const std::string path = EntryPath(kind, id);
+    // O_NONBLOCK: a FIFO planted under an entry's name must not hang the reader.
+    const UniqueFd fd = OpenFile(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    if (!fd.valid() && errno == ENOENT) return absl::NotFoundError(Label(kind, id) + " not found");
+    if (!fd.valid()) return ErrnoStatus(errno, "cannot open", path);
+    struct stat st;
+    if (::fstat(fd.get(), &st) != 0) return ErrnoStatus(errno, "cannot stat", path);
+    const std::string label = Label(kind, id);
+    if (!S_ISREG(st.st_mode)) return absl::DataLossError(label + ": not a regular file");
+    const uint64_t limit = kEntryHeaderBytes + kMaxEntryPayloadBytes + kEntryTrailerBytes;
+    if (static_cast<uint64_t>(st.st_size) > limit) {
+        return absl::DataLossError(absl::StrCat(label, ": file is ", st.st_size,
+                                                " bytes, more than the limit of ", limit));
+    }
+    std::string bytes(static_cast<std::size_t>(st.st_size), '\0');
+    if (const int error = ReadAll(fd.get(), bytes); error != 0) {
+        return ErrnoStatus(error, "cannot read", path);
+    }
+    const absl::StatusOr<std::string_view> payload = DecodeEntry(bytes, kind);
+    if (!payload.ok()) {
+        return absl::Status(payload.status().code(),
+                            absl::StrCat(label, ": ", payload.status().message()));
+    }
+    // Strip the envelope in place rather than copying a payload of up to 1 GiB.
+    bytes.resize(kEntryHeaderBytes + payload->size());
+    bytes.erase(0, kEntryHeaderBytes);
+    return StoredEntry{std::string(id), std::move(bytes), StampOf(st)};
+}
+
+absl::StatusOr<FileStamp> EntryStore::Stat(EntryKind kind, std::string_view id) const {
+    SOILVOL_RETURN_IF_ERROR(ValidateId(id, IdField(kind)));
+    const std::string path = EntryPath(kind, id);
+    struct stat st;
+    if (::stat(path.c_str(), &st) == 0) return StampOf(st);
+    if (errno == ENOENT) return absl::NotFoundError(Label(kind, id) + " not found");
+    return ErrnoStatus(errno, "cannot stat", path);
+}
+
+absl::Status EntryStore::Delete(EntryKind kind, std::string_view id) {
+    SOILVOL_RETURN_IF_ERROR(ValidateId(id, IdField(kind)));
+    const std::string path = EntryPath(kind, id);
+    if (::unlink(path.c_str()) != 0) {
+        if (errno == ENOENT) return absl::NotFoundError(Label(kind, id) + " not found");
+        return ErrnoStatus(errno, "cannot delete", path);
+    }
+    return SyncDirectory(Folder(kind));
+}
+
+std::vector<std::string> EntryStore::List(EntryKind kind) const {
+    std::vector<std::string> ids;
+    for (const std::string& name : DirectoryNames(Folder(kind))) {
+        absl::string_view id = name;
+        if (absl::ConsumeSuffix(&id, kEntrySuffix) &&
+            ValidateId(std::string_view(id.data(), id.size()), "").ok()) {
+            ids.emplace_back(id);
+        }
+    }
+    std::sort(ids.begin(), ids.end());
+    return ids;
+}
+
+absl::Status EntryStore::CheckWritable() const {
+    for (const EntryKind kind : {EntryKind::kCalibration, EntryKind::kContainer}) {
+        SOILVOL_ASSIGN_OR_RETURN(TempFile probe, CreateTempFile(Folder(kind), kProbeId));
+        const int close_error = probe.fd.Close();
+        if (::unlink(probe.path.c_str()) != 0)
+            return ErrnoStatus(errno, "cannot remove", probe.path);
+        if (close_error != 0) return ErrnoStatus(close_error, "cannot close", probe.path);
+    }
+    return absl::OkStatus();
+}
+
+std::string EntryStore::Folder(EntryKind kind) const {
+    return (root_ / (kind == EntryKind::kCalibration ? "calibrations" : "containers")).string();
+}
+
+std::string EntryStore::EntryPath(EntryKind kind, std::string_view id) const {
+    return absl::StrCat(Folder(kind), "/", AbslView(id), kEntrySuffix);
+}
+
+}  // namespace soilvol::server

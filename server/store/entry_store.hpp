@@ -1,0 +1,89 @@
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "server/store/entry_file.hpp"
+
+namespace soilvol::server {
+
+/// Identity and version of an entry file, from one stat; equal stamps mean unchanged content
+/// (an overwrite publishes a new file, so the inode changes even within one mtime tick).
+struct FileStamp {
+    uint64_t device = 0;
+    uint64_t inode = 0;
+    uint64_t size = 0;     ///< [bytes] of the whole file
+    int64_t mtime_ns = 0;  ///< [ns] since the epoch
+
+    bool operator==(const FileStamp& o) const {
+        return device == o.device && inode == o.inode && size == o.size && mtime_ns == o.mtime_ns;
+    }
+    bool operator!=(const FileStamp& o) const { return !(*this == o); }
+};
+
+/// One entry as read: payload and the stamp of the file it came from.
+struct StoredEntry {
+    std::string id;
+    std::string payload;
+    FileStamp stamp;
+};
+
+struct EntryStoreConfig {
+    /// Temp files older than this are left by killed writers and removed by Open.
+    std::chrono::seconds stale_temp_age = std::chrono::hours(1);
+};
+
+/// Container models and calibrations as opaque payloads in a data directory, one file per
+/// entry: <root>/{calibrations,containers}/<id>.entry. Stateless (several processes may share
+/// the root) and thread-safe. Writes are atomic: a reader, or a writer killed at any moment,
+/// leaves either no entry or a complete one.
+class EntryStore {
+  public:
+    /// Creates <root> and its kind folders when missing and removes stale temp files.
+    /// FailedPrecondition (naming the path and the errno text) when root cannot be created or
+    /// is not a writable directory.
+    static absl::StatusOr<std::unique_ptr<EntryStore>> Open(const std::filesystem::path& root,
+                                                            const EntryStoreConfig& config = {});
+
+    /// Publishes `payload` (at most kMaxEntryPayloadBytes) under `id`. InvalidArgument for a bad
+    /// id or size; AlreadyExists when the id exists and !overwrite (exactly one of several
+    /// racing creators wins); Internal or Unavailable with the errno text on I/O failure.
+    absl::Status Put(EntryKind kind, std::string_view id, std::string_view payload, bool overwrite);
+
+    /// The entry's payload, with the stamp of the very file read. NotFound when absent;
+    /// DataLoss for a damaged, oversized or non-regular file and FailedPrecondition for another
+    /// schema version, the message prefixed with the kind and id.
+    absl::StatusOr<StoredEntry> Get(EntryKind kind, std::string_view id) const;
+
+    /// The entry file's stamp without reading it. NotFound when absent.
+    absl::StatusOr<FileStamp> Stat(EntryKind kind, std::string_view id) const;
+
+    /// Removes the entry. NotFound when absent.
+    absl::Status Delete(EntryKind kind, std::string_view id);
+
+    /// Sorted ids of the published entries (damaged ones included); ignores temp files,
+    /// dotfiles and names that are not valid ids. Empty when the folder cannot be read.
+    std::vector<std::string> List(EntryKind kind) const;
+
+    /// For readiness probes: creates and removes a temp file in each kind folder.
+    absl::Status CheckWritable() const;
+
+    const std::filesystem::path& root() const { return root_; }
+
+  private:
+    explicit EntryStore(std::filesystem::path root) : root_(std::move(root)) {}
+    std::string Folder(EntryKind kind) const;
+    std::string EntryPath(EntryKind kind, std::string_view id) const;
+
+    std::filesystem::path root_;
+};
+
+}  // namespace soilvol::server

@@ -1,0 +1,125 @@
+"""Starts real soilvol-server processes on ephemeral ports with temporary data directories,
+and talks to them over REST (urllib). Paths come from the environment that CTest sets:
+SOILVOL_SERVER_BIN, SOILVOL_CLI_BIN, SOILVOL_PROTO_PYTHON."""
+import base64
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+import urllib.error
+import urllib.request
+
+SERVER_BIN = os.environ.get("SOILVOL_SERVER_BIN", "build/server/soilvol-server")
+CLI_BIN = os.environ.get("SOILVOL_CLI_BIN", "build/client/soilvol")
+
+
+class Server:
+    """One soilvol-server process. Use as a context manager, or call start()/stop()."""
+
+    def __init__(self, data_dir=None, args=(), env=None):
+        self.own_dir = data_dir is None
+        self.data_dir = data_dir or tempfile.mkdtemp(prefix="soilvol-it-")
+        self.args = list(args)
+        self.env = env
+        self.proc = None
+        self.grpc_port = None
+        self.http_port = None
+        self.log = []
+        self._listening = threading.Event()
+
+    def start(self, timeout_s=30):
+        cmd = [SERVER_BIN, "--grpc-address", "127.0.0.1:0", "--http-address", "127.0.0.1:0",
+               "--data-dir", self.data_dir] + self.args
+        env = dict(os.environ)
+        env.update(self.env or {})
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                     text=True, env=env)
+        self._reader = threading.Thread(target=self._read_log, daemon=True)
+        self._reader.start()
+        if not self._listening.wait(timeout_s):
+            self.stop()
+            raise RuntimeError("server did not start:\n" + "\n".join(self.log))
+        return self
+
+    def _read_log(self):
+        for line in self.proc.stderr:
+            self.log.append(line.rstrip("\n"))
+            m = re.search(r"listening grpc_port=(\d+) http_port=(\d+)", line)
+            if m:
+                self.grpc_port, self.http_port = int(m.group(1)), int(m.group(2))
+                self._listening.set()
+
+    @property
+    def grpc_target(self):
+        return f"127.0.0.1:{self.grpc_port}"
+
+    @property
+    def base_url(self):
+        return f"http://127.0.0.1:{self.http_port}"
+
+    def stop(self, sig=signal.SIGTERM, timeout_s=30):
+        """Stops the process; returns its exit code."""
+        if self.proc is None:
+            return None
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+        try:
+            code = self.proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            code = self.proc.wait()
+        self._reader.join(5)
+        self.proc.stderr.close()
+        return code
+
+    def alive(self):
+        return self.proc is not None and self.proc.poll() is None
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()
+        if self.own_dir:
+            shutil.rmtree(self.data_dir, ignore_errors=True)
+
+    def rest(self, method, path, body=None, raw=None, headers=None, timeout_s=120):
+        """(HTTP status, parsed JSON or text) for one request. `raw` sends bytes as they are."""
+        data = raw if raw is not None else (json.dumps(body).encode() if body is not None else None)
+        hdrs = {"Content-Type": "application/json"}
+        hdrs.update(headers or {})
+        req = urllib.request.Request(self.base_url + path, method=method, data=data, headers=hdrs)
+        try:
+            with urllib.request.urlopen(req, timeout=timeout_s) as r:
+                status, text, ctype = r.status, r.read().decode(), r.headers.get("Content-Type", "")
+        except urllib.error.HTTPError as e:
+            status, text, ctype = e.code, e.read().decode(), e.headers.get("Content-Type", "")
+        if "json" in ctype:
+            return status, json.loads(text) if text else None
+        return status, text
+
+
+def b64(data):
+    return base64.b64encode(data).decode()
+
+
+def cloud_scan(ply_bytes):
+    return {"cloud": {"data": b64(ply_bytes)}}
+
+
+def corners_json(corners):
+    return {"corners": [{"x": x, "y": y, "z": z} for x, y, z in corners]}
+
+
+def wait_until(predicate, timeout_s=10.0, step_s=0.05):
+    end = time.time() + timeout_s
+    while time.time() < end:
+        if predicate():
+            return True
+        time.sleep(step_s)
+    return predicate()

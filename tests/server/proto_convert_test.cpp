@@ -1,0 +1,93 @@
+#include "server/proto_convert.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace soilvol::server {
+namespace {
+
+v1::StereoParameters Rig() {
+    v1::StereoParameters p;
+    p.set_image_width(640);
+    p.set_image_height(480);
+    for (v1::CameraIntrinsics* c : {p.mutable_left(), p.mutable_right()}) {
+        c->set_fx(500);
+        c->set_fy(501);
+        c->set_cx(320);
+        c->set_cy(240);
+        for (double k : {0.1, -0.2, 0.001, 0.002}) c->add_distortion(k);
+    }
+    for (double r : {1, 0, 0, 0, 1, 0, 0, 0, 1}) p.add_rotation(r);
+    for (double t : {-0.1, 0.0, 0.002}) p.add_translation_m(t);
+    return p;
+}
+
+void ExpectInvalid(const absl::Status& status, const std::string& field) {
+    EXPECT_TRUE(absl::IsInvalidArgument(status)) << status;
+    EXPECT_EQ(status.message().substr(0, field.size()), field) << status.message();
+}
+
+TEST(ProtoConvert, StereoParametersRoundTrip) {
+    const absl::StatusOr<StereoParameters> core = ToStereoParameters(Rig(), "parameters");
+    ASSERT_TRUE(core.ok()) << core.status();
+    EXPECT_DOUBLE_EQ(core->left.fy, 501);
+    EXPECT_DOUBLE_EQ(core->t_right_left_m.z(), 0.002);
+    v1::StereoParameters back;
+    ToProto(*core, &back);
+    EXPECT_EQ(back.SerializeAsString(), Rig().SerializeAsString());
+}
+
+TEST(ProtoConvert, StereoParameterCountsNameTheField) {
+    v1::StereoParameters p = Rig();
+    p.mutable_rotation()->RemoveLast();
+    ExpectInvalid(ToStereoParameters(p, "parameters").status(), "parameters.rotation");
+    p = Rig();
+    p.add_translation_m(1.0);
+    ExpectInvalid(ToStereoParameters(p, "parameters").status(), "parameters.translation_m");
+    p = Rig();
+    p.clear_left();
+    ExpectInvalid(ToStereoParameters(p, "parameters").status(), "parameters.left");
+}
+
+TEST(ProtoConvert, OpeningNeedsExactlyOneKindOfFourCorners) {
+    v1::Opening opening;
+    ExpectInvalid(ToOpeningMarks(opening, false).status(), "opening");
+    for (int i = 0; i < 3; ++i) opening.add_corners()->set_x(i);
+    ExpectInvalid(ToOpeningMarks(opening, false).status(), "opening.corners");
+    opening.add_corners()->set_y(1);
+    ASSERT_TRUE(ToOpeningMarks(opening, false).ok());
+    EXPECT_TRUE(std::holds_alternative<Corners>(*ToOpeningMarks(opening, false)));
+    opening.mutable_corners(2)->set_z(std::nan(""));
+    ExpectInvalid(ToOpeningMarks(opening, false).status(), "opening.corners[2]");
+
+    v1::Opening pixels;
+    for (int i = 0; i < 4; ++i) pixels.add_pixel_corners()->set_u(10 * i);
+    ExpectInvalid(ToOpeningMarks(pixels, false).status(), "opening.pixel_corners");
+    ASSERT_TRUE(ToOpeningMarks(pixels, true).ok());
+    EXPECT_TRUE(std::holds_alternative<stereo::PixelCorners>(*ToOpeningMarks(pixels, true)));
+    pixels.mutable_pixel_corners(1)->set_v(INFINITY);
+    ExpectInvalid(ToOpeningMarks(pixels, true).status(), "opening.pixel_corners[1]");
+    *pixels.add_corners() = v1::Point3();
+    ExpectInvalid(ToOpeningMarks(pixels, true).status(), "opening");
+}
+
+TEST(ProtoConvert, ChessboardSpecIsChecked) {
+    v1::ChessboardCalibration board;
+    ExpectInvalid(ToChessboardSpec(board).status(), "chessboard.inner_corners");
+    board.mutable_inner_corners()->set_cols(9);
+    board.mutable_inner_corners()->set_rows(6);
+    ExpectInvalid(ToChessboardSpec(board).status(), "chessboard.pairs");
+    board.add_pairs();
+    ExpectInvalid(ToChessboardSpec(board).status(), "chessboard.square_size_m");
+    board.set_square_size_m(0.025);
+    ASSERT_TRUE(ToChessboardSpec(board).ok());
+    board.mutable_inner_corners()->set_rows(1);
+    ExpectInvalid(ToChessboardSpec(board).status(), "chessboard.inner_corners");
+    board.mutable_inner_corners()->set_rows(6);
+    board.set_square_size_m(std::nan(""));
+    ExpectInvalid(ToChessboardSpec(board).status(), "chessboard.square_size_m");
+}
+
+}  // namespace
+}  // namespace soilvol::server
