@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/common/checksum.hpp"
 
 namespace soilvol::model {
 namespace {
@@ -13,15 +14,6 @@ namespace {
 constexpr char kMagic[8] = {'S', 'O', 'I', 'L', 'V', 'O', 'L', 'M'};
 constexpr std::size_t kHeaderBytes = sizeof(kMagic) + 4 + 4 + 8;
 constexpr std::size_t kMaxPolygonVertices = 1024;
-
-uint64_t Fnv1a64(std::string_view bytes) {
-    uint64_t hash = 0xcbf29ce484222325ull;
-    for (const char c : bytes) {
-        hash ^= static_cast<uint8_t>(c);
-        hash *= 0x100000001b3ull;
-    }
-    return hash;
-}
 
 // Little-endian writer (the machines we target are little-endian; the layout is fixed anyway).
 class Writer {

@@ -15,8 +15,9 @@
 
 namespace soilvol::server {
 
-/// Identity and version of an entry file, from one stat; equal stamps mean unchanged content
-/// (an overwrite publishes a new file, so the inode changes even within one mtime tick).
+/// Identity and version of an entry file, from one stat; equal stamps mean unchanged content.
+/// An overwrite publishes a new file, so the inode changes even within one mtime tick (only an
+/// equal-sized rewrite that reuses a just-freed inode within one tick would go unnoticed).
 struct FileStamp {
     uint64_t device = 0;
     uint64_t inode = 0;
