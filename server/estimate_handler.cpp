@@ -56,6 +56,31 @@ absl::StatusOr<pipeline::EstimateConfig> EstimateConfigFor(const v1::EstimateVol
     return config;
 }
 
+/// The model lives in the frame of the sensor it was registered from: a scan must come from
+/// the same kind of sensor and, for stereo, the same calibration.
+absl::Status CheckSameSensor(const v1::Scan& scan, const v1::Container& container) {
+    const bool stereo_model = container.registered_from() == v1::SCAN_KIND_STEREO;
+    if (scan.has_cloud() && stereo_model) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("scan.cloud: container '", container.container_id(),
+                         "' was registered from stereo pairs (calibration '",
+                         container.calibration_id(), "'); send a stereo scan"));
+    }
+    if (scan.has_stereo() && !stereo_model) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("scan.stereo: container '", container.container_id(),
+                         "' was registered from a point cloud; send a cloud scan"));
+    }
+    if (scan.has_stereo() && !scan.stereo().calibration_id().empty() &&
+        scan.stereo().calibration_id() != container.calibration_id()) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "scan.stereo.calibration_id: container '", container.container_id(),
+            "' was registered with calibration '", container.calibration_id(), "', not '",
+            scan.stereo().calibration_id(), "'; register it again to use another rig"));
+    }
+    return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest& request,
@@ -67,7 +92,9 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     SOILVOL_ASSIGN_OR_RETURN(auto container, LoadContainer(request.container_id(), "container_id"));
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::EstimateConfig config,
                              EstimateConfigFor(request, container->info));
-    SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), record));
+    SOILVOL_RETURN_IF_ERROR(CheckSameSensor(request.scan(), container->info));
+    SOILVOL_ASSIGN_OR_RETURN(const Scan scan,
+                             DecodeScan(request.scan(), container->info.calibration_id(), record));
 
     v1::Timings* timings = response->mutable_timings();
     absl::StatusOr<pipeline::VolumeEstimate> estimate;

@@ -159,8 +159,8 @@ void ToProto(const model::ContainerModel& model, v1::Container* proto) {
         AddPoint(model.opening.T_scan_container * Eigen::Vector3d(corner.x(), corner.y(), 0.0),
                  proto->mutable_opening_corners());
     }
-    proto->set_scan_points(static_cast<int64_t>(model.scan_points));
-    proto->set_alignment_points(static_cast<int64_t>(model.alignment_points.size()));
+    proto->set_scan_points(static_cast<int32_t>(model.scan_points));
+    proto->set_alignment_points(static_cast<int32_t>(model.alignment_points.size()));
 }
 
 void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto) {
@@ -173,7 +173,7 @@ void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeRespons
     alignment->set_rmse_m(estimate.alignment.rmse_m);
     alignment->set_converged(estimate.alignment.converged);
     alignment->set_iterations(estimate.alignment.iterations);
-    alignment->set_correspondences(static_cast<int64_t>(estimate.alignment.correspondences));
+    alignment->set_correspondences(static_cast<int32_t>(estimate.alignment.correspondences));
     v1::CellCounts* cells = proto->mutable_cells();
     cells->set_cell_m(estimate.volume.grid.cell_m);
     cells->set_total(estimate.volume.cells.total);
@@ -184,8 +184,8 @@ void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeRespons
     timings->set_preprocess_ms(estimate.timings.range_ms + estimate.timings.outliers_ms);
     timings->set_align_ms(estimate.timings.align_ms);
     timings->set_volume_ms(estimate.timings.volume_ms);
-    proto->set_scan_points(static_cast<int64_t>(estimate.input_points));
-    proto->set_used_points(static_cast<int64_t>(estimate.preprocessed_points));
+    proto->set_scan_points(static_cast<int32_t>(estimate.input_points));
+    proto->set_used_points(static_cast<int32_t>(estimate.preprocessed_points));
 }
 
 }  // namespace soilvol::server

@@ -35,7 +35,7 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
         }
         config.preprocess.max_range_m = range;
     }
-    SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), record));
+    SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), "", record));
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::OpeningMarks marks,
                              ToOpeningMarks(request.opening(), scan.calibration != nullptr));
 

@@ -100,8 +100,8 @@ absl::StatusOr<std::string> SoilVolumeHandlers::ClaimId(EntryKind kind, const st
     return id;
 }
 
-absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(const v1::Scan& scan,
-                                                                        CallRecord& record) const {
+absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(
+    const v1::Scan& scan, const std::string& calibration_id, CallRecord& record) const {
     // Cloud files are parsed here; stereo pairs are decoded by the reconstructor.
     Scan out;
     switch (scan.source_case()) {
@@ -121,10 +121,11 @@ absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(const v1
             if (stereo.right().empty()) {
                 return absl::InvalidArgumentError("scan.stereo.right: is empty");
             }
-            record.ids.push_back({"calibration", stereo.calibration_id()});
-            SOILVOL_ASSIGN_OR_RETURN(
-                out.calibration,
-                LoadCalibration(stereo.calibration_id(), "scan.stereo.calibration_id"));
+            const std::string& id =
+                stereo.calibration_id().empty() ? calibration_id : stereo.calibration_id();
+            record.ids.push_back({"calibration", id});
+            SOILVOL_ASSIGN_OR_RETURN(out.calibration,
+                                     LoadCalibration(id, "scan.stereo.calibration_id"));
             out.left = stereo.left();
             out.right = stereo.right();
             return out;

@@ -69,7 +69,9 @@ class SoilVolumeHandlers {
         const std::string& id, const std::string& field) const;
     absl::StatusOr<std::shared_ptr<const ContainerEntry>> LoadContainer(
         const std::string& id, const std::string& field) const;
-    absl::StatusOr<Scan> DecodeScan(const v1::Scan& scan, CallRecord& record) const;
+    /// `calibration_id` stands in for an empty scan.stereo.calibration_id.
+    absl::StatusOr<Scan> DecodeScan(const v1::Scan& scan, const std::string& calibration_id,
+                                    CallRecord& record) const;
     /// The request's id, or a new one when it is empty; AlreadyExists when taken and
     /// `overwrite` is false (checked again atomically when the entry is written).
     absl::StatusOr<std::string> ClaimId(EntryKind kind, const std::string& id,

@@ -8,6 +8,7 @@ import re
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -123,3 +124,47 @@ def wait_until(predicate, timeout_s=10.0, step_s=0.05):
             return True
         time.sleep(step_s)
     return predicate()
+
+
+def metric(text, name, **labels):
+    """Sum of the samples of `name` in Prometheus text whose labels include `labels`; 0 when
+    there are none."""
+    total = 0.0
+    for line in text.splitlines():
+        m = re.match(r"([a-zA-Z_:][a-zA-Z0-9_:]*)(?:\{(.*)\})? (\S+)$", line)
+        if not m or m.group(1) != name:
+            continue
+        have = dict(re.findall(r'(\w+)="((?:[^"\\]|\\.)*)"', m.group(2) or ""))
+        if all(have.get(k) == v for k, v in labels.items()):
+            total += float(m.group(3))
+    return total
+
+
+def server_metric(server, name, **labels):
+    """`metric` of the server's /metrics page now."""
+    status, text = server.rest("GET", "/metrics")
+    if status != 200:
+        raise RuntimeError(f"/metrics answered {status}")
+    return metric(text, name, **labels)
+
+
+SKIPPED = 77  # CTest's SKIP_RETURN_CODE for the integration tests
+
+
+def load_grpc():
+    """(grpc, soilvol_pb2, soilvol_pb2_grpc): python3-grpcio and the stubs generated into
+    $SOILVOL_PROTO_PYTHON. Exits with SKIPPED when grpc does not import or the variable is not
+    set; stubs that are missing or do not import from the folder it names are an error."""
+    proto_dir = os.environ.get("SOILVOL_PROTO_PYTHON")
+    if not proto_dir:
+        print("skipped: SOILVOL_PROTO_PYTHON is not set (no generated python stubs)",
+              file=sys.stderr)
+        sys.exit(SKIPPED)
+    try:
+        import grpc  # before the stub folder is on the path: it holds a grpc/ folder too
+    except ImportError as e:
+        print(f"skipped: python grpc is not installed ({e})", file=sys.stderr)
+        sys.exit(SKIPPED)
+    sys.path.insert(0, proto_dir)
+    from soilvol.v1 import soilvol_pb2, soilvol_pb2_grpc
+    return grpc, soilvol_pb2, soilvol_pb2_grpc

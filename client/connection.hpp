@@ -1,0 +1,51 @@
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+#include <string>
+
+#include "grpc/health/v1/health.grpc.pb.h"
+#include "soilvol/v1/soilvol.grpc.pb.h"
+
+namespace soilvol::client {
+
+/// Exit codes of every subcommand.
+enum ExitCode : int {
+    kExitOk = 0,
+    kExitRpcError = 1,  ///< an RPC failed, or the health check is not SERVING
+    kExitUsage = 2,     ///< bad arguments or unreadable input files
+};
+
+/// Options every subcommand takes, before or after its name.
+struct GlobalOptions {
+    std::string server = "localhost:50051";  ///< host:port; env SOILVOL_SERVER
+    bool json = false;                       ///< proto3 JSON instead of tables
+    double timeout_s = 120.0;                ///< deadline of each RPC [s]
+};
+
+/// An insecure channel to the server with both stubs; each call gets a fresh context.
+class Connection {
+  public:
+    explicit Connection(const GlobalOptions& options);
+
+    v1::SoilVolume::Stub& Soil() { return *soil_; }
+    grpc::health::v1::Health::Stub& Health() { return *health_; }
+
+    /// A context whose deadline is timeout_s from now.
+    std::unique_ptr<grpc::ClientContext> NewContext() const;
+
+  private:
+    double timeout_s_;
+    std::shared_ptr<grpc::Channel> channel_;
+    std::unique_ptr<v1::SoilVolume::Stub> soil_;
+    std::unique_ptr<grpc::health::v1::Health::Stub> health_;
+};
+
+/// The canonical name of a gRPC status code ("NOT_FOUND").
+std::string StatusCodeName(grpc::StatusCode code);
+
+/// Prints `error: <CODE_NAME>: <message>` to stderr and returns kExitRpcError.
+int ReportRpcError(const grpc::Status& status);
+
+}  // namespace soilvol::client

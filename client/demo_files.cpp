@@ -1,0 +1,62 @@
+#include "client/demo_files.hpp"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+
+namespace soilvol::client {
+namespace {
+
+absl::Status WriteFile(const std::string& dir, const std::string& name,
+                       const std::string& content) {
+    std::error_code error;
+    std::filesystem::create_directories(dir, error);
+    const std::string path = (std::filesystem::path(dir) / name).string();
+    std::ofstream file(path, std::ios::binary);
+    file.write(content.data(), static_cast<std::streamsize>(content.size()));
+    file.close();
+    if (!file) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+    return absl::OkStatus();
+}
+
+std::string CornersArgument(const v1::Opening& opening) {
+    std::vector<std::string> points;
+    for (const v1::Point3& p : opening.corners()) {
+        points.push_back(absl::StrFormat("%.6f,%.6f,%.6f", p.x(), p.y(), p.z()));
+    }
+    for (const v1::PixelPoint& p : opening.pixel_corners()) {
+        points.push_back(absl::StrFormat("%.3f,%.3f", p.u(), p.v()));
+    }
+    return absl::StrJoin(points, ";") + "\n";
+}
+
+}  // namespace
+
+absl::Status SaveDemoScan(const std::string& dir, const std::string& stem, const DemoScan& scan) {
+    absl::Status status = WriteFile(dir, stem + "-corners.txt", CornersArgument(scan.opening));
+    if (scan.scan.has_cloud()) {
+        status.Update(WriteFile(dir, stem + ".ply", scan.scan.cloud().data()));
+    } else {
+        status.Update(WriteFile(dir, stem + "-left.png", scan.scan.stereo().left()));
+        status.Update(WriteFile(dir, stem + "-right.png", scan.scan.stereo().right()));
+    }
+    return status;
+}
+
+absl::Status SaveDemoParameters(const std::string& dir, const v1::StereoParameters& parameters) {
+    google::protobuf::util::JsonPrintOptions options;
+    options.add_whitespace = true;
+    std::string json;
+    if (!google::protobuf::util::MessageToJsonString(parameters, &json, options).ok()) {
+        return absl::InternalError("cannot print the rig parameters as JSON");
+    }
+    return WriteFile(dir, "parameters.json", json);
+}
+
+}  // namespace soilvol::client

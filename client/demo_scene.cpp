@@ -1,0 +1,147 @@
+#include "client/demo_scene.hpp"
+
+#include "absl/strings/str_format.h"
+#include "core/io/cloud_codec.hpp"
+#include "core/sim/tof_sensor.hpp"
+#include "core/stereo/image_codec.hpp"
+
+namespace soilvol::client {
+namespace {
+
+std::string ContainerName(sim::ContainerKind kind) {
+    switch (kind) {
+        case sim::ContainerKind::kPaperBucket:
+            return "paper bucket 2.05x0.54x0.6 m";
+        case sim::ContainerKind::kExcavatorBucket:
+            return "excavator bucket 1.2x1.0 m, sloped";
+        case sim::ContainerKind::kTruckBed:
+            return "truck bed 4.0x2.2x0.8 m";
+    }
+    return "unknown container";
+}
+
+// As bench/stereo_trial.cpp's PaperRig: as near as 2.5 m as the opening stays 40 px inside.
+double StereoDistance(const DemoSetup& setup) {
+    const sim::ContainerGeometry container = sim::MakeContainer(setup.kind);
+    sim::SensorSpec view = setup.view;
+    const double w = setup.rig.image_width;
+    const double h = setup.rig.image_height;
+    for (view.distance_m = 2.5; view.distance_m < 8.0; view.distance_m += 0.25) {
+        const Pose T_left_container = sim::NominalScanPose(view);
+        bool inside = true;
+        for (const Eigen::Vector3d& corner : container.opening_corners) {
+            const Eigen::Vector2d px = sim::ProjectLeft(setup.rig, T_left_container * corner);
+            inside = inside && px.allFinite() && px.x() > 40 && px.y() > 40 && px.x() < w - 40 &&
+                     px.y() < h - 40;
+        }
+        if (inside) break;
+    }
+    return view.distance_m;
+}
+
+void SetIntrinsics(const CameraIntrinsics& in, v1::CameraIntrinsics* out) {
+    out->set_fx(in.fx);
+    out->set_fy(in.fy);
+    out->set_cx(in.cx);
+    out->set_cy(in.cy);
+    for (const double k : in.distortion) out->add_distortion(k);
+}
+
+absl::StatusOr<DemoScan> StereoScan(const sim::SceneSpec& spec, const DemoSetup& setup,
+                                    const std::string& calibration_id) {
+    const sim::StereoScene scene = sim::RenderStereoScene(spec, setup.rig);
+    absl::StatusOr<std::string> left = stereo::EncodePng(scene.left);
+    if (!left.ok()) return left.status();
+    absl::StatusOr<std::string> right = stereo::EncodePng(scene.right);
+    if (!right.ok()) return right.status();
+    DemoScan out;
+    out.scan.mutable_stereo()->set_left(*std::move(left));
+    out.scan.mutable_stereo()->set_right(*std::move(right));
+    out.scan.mutable_stereo()->set_calibration_id(calibration_id);
+    for (const Eigen::Vector2d& px : scene.opening_corners_px) {
+        v1::PixelPoint* corner = out.opening.add_pixel_corners();
+        corner->set_u(px.x());
+        corner->set_v(px.y());
+    }
+    out.true_volume_m3 = scene.true_volume_m3;
+    out.struck_capacity_m3 = scene.struck_capacity_m3;
+    out.heaped_capacity_m3 = scene.heaped_capacity_sae_m3;
+    return out;
+}
+
+DemoScan CloudScan(const sim::SceneSpec& spec) {
+    const sim::Scene scene = sim::SimulateScene(spec);
+    DemoScan out;
+    out.scan.mutable_cloud()->set_data(io::EncodePly(scene.points));
+    for (const Eigen::Vector3d& c : scene.opening_corners_scan) {
+        v1::Point3* corner = out.opening.add_corners();
+        corner->set_x(c.x());
+        corner->set_y(c.y());
+        corner->set_z(c.z());
+    }
+    out.true_volume_m3 = scene.true_volume_m3;
+    out.struck_capacity_m3 = scene.struck_capacity_m3;
+    out.heaped_capacity_m3 = scene.heaped_capacity_sae_m3;
+    return out;
+}
+
+}  // namespace
+
+DemoSetup MakeDemoSetup(sim::ContainerKind kind, bool stereo, uint64_t seed) {
+    DemoSetup setup;
+    setup.kind = kind;
+    setup.stereo = stereo;
+    setup.seed = seed;
+    setup.view = sim::ViewpointFor(kind);
+    setup.view.range_noise_sigma_m = 0.04;
+    setup.view.angular_resolution_deg = 0.5;
+    setup.depth_m = sim::MakeContainer(kind).depth_m;
+    if (stereo) setup.view.distance_m = StereoDistance(setup);
+    return setup;
+}
+
+std::string DescribeDemo(const DemoSetup& setup) {
+    if (setup.stereo) {
+        return absl::StrFormat(
+            "%s, rendered %dx%d stereo pairs, %.0f cm baseline, %.2f m away, exact rig "
+            "parameters, container moved up to %.0f deg / %.0f cm between pairs",
+            ContainerName(setup.kind), setup.rig.image_width, setup.rig.image_height,
+            setup.rig.baseline_m * 100, setup.view.distance_m, setup.jitter.max_rotation_deg,
+            setup.jitter.max_translation_m * 100);
+    }
+    return absl::StrFormat(
+        "%s, simulated time-of-flight sensor (%.0f cm noise, %.1f deg) %.2f m away, container "
+        "moved up to %.0f deg / %.0f cm between scans",
+        ContainerName(setup.kind), setup.view.range_noise_sigma_m * 100,
+        setup.view.angular_resolution_deg, setup.view.distance_m, setup.jitter.max_rotation_deg,
+        setup.jitter.max_translation_m * 100);
+}
+
+v1::StereoParameters DemoRigParameters(const DemoSetup& setup) {
+    const StereoParameters exact = sim::RigParameters(setup.rig);
+    v1::StereoParameters out;
+    out.set_image_width(exact.image_width);
+    out.set_image_height(exact.image_height);
+    SetIntrinsics(exact.left, out.mutable_left());
+    SetIntrinsics(exact.right, out.mutable_right());
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) out.add_rotation(exact.R_right_left(r, c));
+        out.add_translation_m(exact.t_right_left_m(r));
+    }
+    return out;
+}
+
+absl::StatusOr<DemoScan> SimulateDemoScan(const DemoSetup& setup, double fill_share,
+                                          uint64_t scan_index, const std::string& calibration_id) {
+    sim::SceneSpec spec;
+    spec.container = setup.kind;
+    spec.sensor = setup.view;
+    spec.jitter = setup.jitter;
+    spec.soil.fill_height_m = fill_share * setup.depth_m;
+    spec.soil_seed = setup.seed;
+    spec.scan_seed = setup.seed * 1000 + scan_index;
+    if (setup.stereo) return StereoScan(spec, setup, calibration_id);
+    return CloudScan(spec);
+}
+
+}  // namespace soilvol::client

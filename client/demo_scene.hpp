@@ -1,0 +1,50 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "core/sim/scene.hpp"
+#include "core/sim/stereo_renderer.hpp"
+#include "soilvol/v1/soilvol.pb.h"
+
+namespace soilvol::client {
+
+/// The demo's simulated set-up, as soilvol-bench's demos: the paper's time-of-flight sensor
+/// (4 cm, 0.5 deg) or its 640x480 stereo rig with a 10 cm baseline, the container moved by up
+/// to 3 deg / 5 cm between scans.
+struct DemoSetup {
+    sim::ContainerKind kind = sim::ContainerKind::kPaperBucket;
+    bool stereo = false;
+    uint64_t seed = 1;
+    sim::SensorSpec view;  ///< the sensor; for stereo only its distance, elevation, azimuth
+    sim::StereoRigSpec rig;
+    sim::PoseJitter jitter{3.0, 0.05};
+    double depth_m = 0.0;  ///< container depth: fills are shares of it
+};
+
+/// The set-up for `kind`; for stereo, the nearest distance from 2.5 m at which the opening
+/// stays 40 px inside the image.
+DemoSetup MakeDemoSetup(sim::ContainerKind kind, bool stereo, uint64_t seed);
+
+/// One line describing the set-up.
+std::string DescribeDemo(const DemoSetup& setup);
+
+/// The rig's exact parameters for a CalibrateRequest.
+v1::StereoParameters DemoRigParameters(const DemoSetup& setup);
+
+/// A simulated scan ready to upload, with its exact truth.
+struct DemoScan {
+    v1::Scan scan;
+    v1::Opening opening;  ///< true corners: 3D in the scan frame, or left-image pixels (stereo)
+    double true_volume_m3 = 0.0;
+    double struck_capacity_m3 = 0.0;
+    double heaped_capacity_m3 = 0.0;  ///< SAE J296
+};
+
+/// Scan number `scan_index` (0: the empty registration scan) with soil filled to `fill_share`
+/// of the depth; stereo scans name `calibration_id`. Internal when an image cannot be encoded.
+absl::StatusOr<DemoScan> SimulateDemoScan(const DemoSetup& setup, double fill_share,
+                                          uint64_t scan_index, const std::string& calibration_id);
+
+}  // namespace soilvol::client

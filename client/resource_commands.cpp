@@ -1,0 +1,91 @@
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "client/commands.hpp"
+#include "client/response_printer.hpp"
+
+namespace soilvol::client {
+namespace {
+
+enum class Action { kList, kGet, kDelete };
+
+int RunContainers(Action action, const std::string& id, const GlobalOptions& global) {
+    Connection connection(global);
+    const auto context = connection.NewContext();
+    grpc::Status status;
+    if (action == Action::kList) {
+        v1::ListContainersResponse list;
+        status = connection.Soil().ListContainers(context.get(), {}, &list);
+        if (status.ok()) PrintContainerList(list, global.json, std::cout);
+    } else if (action == Action::kGet) {
+        v1::GetContainerRequest request;
+        request.set_container_id(id);
+        v1::Container container;
+        status = connection.Soil().GetContainer(context.get(), request, &container);
+        if (status.ok()) PrintContainer(container, global.json, std::cout);
+    } else {
+        v1::DeleteContainerRequest request;
+        request.set_container_id(id);
+        v1::DeleteContainerResponse deleted;
+        status = connection.Soil().DeleteContainer(context.get(), request, &deleted);
+        if (status.ok() && global.json) PrintJson(deleted, std::cout);
+        if (status.ok() && !global.json) std::cout << "deleted container " << id << "\n";
+    }
+    return status.ok() ? kExitOk : ReportRpcError(status);
+}
+
+int RunCalibrations(Action action, const std::string& id, const GlobalOptions& global) {
+    Connection connection(global);
+    const auto context = connection.NewContext();
+    grpc::Status status;
+    if (action == Action::kList) {
+        v1::ListCalibrationsResponse list;
+        status = connection.Soil().ListCalibrations(context.get(), {}, &list);
+        if (status.ok()) PrintCalibrationList(list, global.json, std::cout);
+    } else if (action == Action::kGet) {
+        v1::GetCalibrationRequest request;
+        request.set_calibration_id(id);
+        v1::Calibration calibration;
+        status = connection.Soil().GetCalibration(context.get(), request, &calibration);
+        if (status.ok()) PrintCalibration(calibration, global.json, std::cout);
+    } else {
+        v1::DeleteCalibrationRequest request;
+        request.set_calibration_id(id);
+        v1::DeleteCalibrationResponse deleted;
+        status = connection.Soil().DeleteCalibration(context.get(), request, &deleted);
+        if (status.ok() && global.json) PrintJson(deleted, std::cout);
+        if (status.ok() && !global.json) std::cout << "deleted calibration " << id << "\n";
+    }
+    return status.ok() ? kExitOk : ReportRpcError(status);
+}
+
+using Runner = int (*)(Action, const std::string&, const GlobalOptions&);
+
+// `<noun> list | get ID | delete ID`.
+void AddResource(CLI::App& app, const std::string& noun, const std::string& singular, Runner run,
+                 const GlobalOptions& global, int* exit_code) {
+    auto* group = app.add_subcommand(noun, "list, show or delete " + noun);
+    group->require_subcommand(1);
+    group->add_subcommand("list", "list every " + singular)->callback([run, &global, exit_code] {
+        *exit_code = run(Action::kList, "", global);
+    });
+    for (const auto& [name, action] :
+         {std::pair{"get", Action::kGet}, std::pair{"delete", Action::kDelete}}) {
+        auto id = std::make_shared<std::string>();
+        auto* command = group->add_subcommand(name, std::string(name) + " one " + singular);
+        command->add_option("id", *id, singular + " id")->required();
+        command->callback([run, action = action, id, &global, exit_code] {
+            *exit_code = run(action, *id, global);
+        });
+    }
+}
+
+}  // namespace
+
+void AddResourceCommands(CLI::App& app, const GlobalOptions& global, int* exit_code) {
+    AddResource(app, "containers", "container", RunContainers, global, exit_code);
+    AddResource(app, "calibrations", "calibration", RunCalibrations, global, exit_code);
+}
+
+}  // namespace soilvol::client

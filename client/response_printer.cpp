@@ -1,0 +1,176 @@
+#include "client/response_printer.hpp"
+
+#include <google/protobuf/util/json_util.h>
+#include <google/protobuf/util/time_util.h>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "client/table.hpp"
+
+namespace soilvol::client {
+namespace {
+
+std::string Time(const google::protobuf::Timestamp& time) {
+    if (time.seconds() == 0 && time.nanos() == 0) return "-";
+    return google::protobuf::util::TimeUtil::ToString(time);
+}
+
+std::string Source(v1::CalibrationSource source) {
+    return EnumLabel(v1::CalibrationSource_Name(source), "CALIBRATION_SOURCE_");
+}
+
+std::string Kind(v1::ScanKind kind) { return EnumLabel(v1::ScanKind_Name(kind), "SCAN_KIND_"); }
+
+std::string Corners(const google::protobuf::RepeatedPtrField<v1::Point3>& corners) {
+    std::vector<std::string> points;
+    for (const v1::Point3& p : corners) {
+        points.push_back(absl::StrFormat("%.3f,%.3f,%.3f", p.x(), p.y(), p.z()));
+    }
+    return absl::StrJoin(points, ";");
+}
+
+void PrintUnreadable(const google::protobuf::RepeatedPtrField<v1::UnreadableEntry>& entries,
+                     std::ostream& out) {
+    for (const v1::UnreadableEntry& entry : entries) {
+        out << "unreadable: " << entry.id() << ": " << entry.reason() << "\n";
+    }
+}
+
+std::string Percent(double ratio) { return Fixed(100.0 * ratio, 1); }
+
+}  // namespace
+
+std::string EnumLabel(const std::string& name, const std::string& prefix) {
+    std::string label = absl::StartsWith(name, prefix) ? name.substr(prefix.size()) : name;
+    return label.empty() ? "-" : absl::AsciiStrToLower(label);
+}
+
+void PrintJson(const google::protobuf::Message& message, std::ostream& out) {
+    google::protobuf::util::JsonPrintOptions options;
+    options.always_print_primitive_fields = true;
+    std::string text;
+    const auto status = google::protobuf::util::MessageToJsonString(message, &text, options);
+    out << (status.ok() ? text : "{}") << "\n";
+}
+
+void PrintCalibration(const v1::Calibration& c, bool json, std::ostream& out,
+                      const std::vector<std::string>& pair_names) {
+    if (json) return PrintJson(c, out);
+    Fields fields = {
+        {"calibration id", c.calibration_id()},
+        {"source", Source(c.source())},
+        {"image size [px]", absl::StrCat(c.image_width(), " x ", c.image_height())},
+        {"baseline [m]", Fixed(c.baseline_m(), 4)},
+        {"focal length [px]", Fixed(c.focal_length_px(), 1)},
+    };
+    if (c.source() == v1::CALIBRATION_SOURCE_CHESSBOARD) {
+        fields.push_back({"rms reprojection [px]", Fixed(c.rms_reprojection_error_px(), 3)});
+        fields.push_back({"mean epipolar [px]", Fixed(c.mean_epipolar_error_px(), 3)});
+        fields.push_back({"pairs used", absl::StrCat(c.pairs_used())});
+        fields.push_back({"pairs skipped", absl::StrCat(c.skipped_pairs_size())});
+    }
+    fields.push_back({"created", Time(c.create_time())});
+    PrintFields(fields, out);
+    for (const v1::SkippedPair& skipped : c.skipped_pairs()) {
+        const auto index = static_cast<size_t>(skipped.index());
+        const std::string name =
+            index < pair_names.size() ? absl::StrCat(" (", pair_names[index], ")") : "";
+        out << "  skipped pair " << skipped.index() << name << ": " << skipped.reason() << "\n";
+    }
+}
+
+void PrintContainer(const v1::Container& c, bool json, std::ostream& out) {
+    if (json) return PrintJson(c, out);
+    std::string from = Kind(c.registered_from());
+    if (!c.calibration_id().empty())
+        absl::StrAppend(&from, " (calibration ", c.calibration_id(), ")");
+    PrintFields({{"container id", c.container_id()},
+                 {"registered from", from},
+                 {"struck capacity [m^3]", Fixed(c.struck_capacity_m3(), 4)},
+                 {"heaped SAE 1:1 [m^3]", Fixed(c.heaped_capacity_m3(), 4)},
+                 {"heaped ISO 2:1 [m^3]", Fixed(c.heaped_capacity_iso_m3(), 4)},
+                 {"opening area [m^2]", Fixed(c.opening_area_m2(), 4)},
+                 {"depth [m]", Fixed(c.depth_m(), 4)},
+                 {"noise sigma [m]", Fixed(c.noise_sigma_m(), 4)},
+                 {"opening corners [m]", Corners(c.opening_corners())},
+                 {"scan points", absl::StrCat(c.scan_points())},
+                 {"alignment points", absl::StrCat(c.alignment_points())},
+                 {"max range [m]", c.has_max_range_m() ? Fixed(c.max_range_m(), 2) : "none"},
+                 {"created", Time(c.create_time())}},
+                out);
+}
+
+void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream& out) {
+    if (json) return PrintJson(e, out);
+    const v1::Alignment& a = e.alignment();
+    const v1::CellCounts& cells = e.cells();
+    const v1::Timings& t = e.timings();
+    std::string timings = absl::StrFormat("decode %.1f, ", t.decode_ms());
+    if (t.rectify_ms() + t.match_ms() + t.reproject_ms() > 0.0) {
+        absl::StrAppendFormat(&timings, "rectify %.1f, match %.1f, reproject %.1f, ",
+                              t.rectify_ms(), t.match_ms(), t.reproject_ms());
+    }
+    absl::StrAppendFormat(
+        &timings, "preprocess %.1f, align %.1f, volume %.1f, queue %.1f, total %.1f",
+        t.preprocess_ms(), t.align_ms(), t.volume_ms(), t.queue_ms(), t.total_ms());
+    Fields fields = {{"container id", e.container_id()}};
+    if (!e.request_id().empty()) fields.push_back({"request id", e.request_id()});
+    fields.insert(
+        fields.end(),
+        {{"method", EnumLabel(v1::EstimationMethod_Name(e.method()), "ESTIMATION_METHOD_")},
+         {"volume [m^3]", Fixed(e.volume_m3(), 4)},
+         {"volume [L]", Fixed(1000.0 * e.volume_m3(), 1)},
+         {"uncertainty 1-sigma [L]", Fixed(1000.0 * e.uncertainty_m3(), 1)},
+         {"fill of struck [%]", Percent(e.fill_ratio())},
+         {"fill of heaped SAE [%]", Percent(e.fill_ratio_heaped())}});
+    if (e.has_mass_kg()) fields.push_back({"mass [kg]", Fixed(e.mass_kg(), 1)});
+    fields.insert(
+        fields.end(),
+        {{"alignment",
+          absl::StrFormat("fitness %.3f, rmse %.4f m, %s after %d iterations, %d "
+                          "correspondences",
+                          a.fitness(), a.rmse_m(), a.converged() ? "converged" : "not converged",
+                          a.iterations(), a.correspondences())},
+         {"cells", absl::StrFormat("%.3f m: %d total, %d measured, %d interpolated, %d with soil",
+                                   cells.cell_m(), cells.total(), cells.measured(),
+                                   cells.interpolated(), cells.with_soil())},
+         {"points", absl::StrFormat("%d in scan, %d used", e.scan_points(), e.used_points())},
+         {"timings [ms]", timings}});
+    PrintFields(fields, out);
+}
+
+void PrintCalibrationList(const v1::ListCalibrationsResponse& list, bool json, std::ostream& out) {
+    if (json) return PrintJson(list, out);
+    Table table({"id", "source", "size [px]", "baseline [m]", "focal [px]", "rms [px]", "pairs",
+                 "created"});
+    for (const v1::Calibration& c : list.calibrations()) {
+        const bool board = c.source() == v1::CALIBRATION_SOURCE_CHESSBOARD;
+        table.AddRow({c.calibration_id(), Source(c.source()),
+                      absl::StrCat(c.image_width(), "x", c.image_height()),
+                      Fixed(c.baseline_m(), 4), Fixed(c.focal_length_px(), 1),
+                      board ? Fixed(c.rms_reprojection_error_px(), 3) : "-",
+                      board ? absl::StrCat(c.pairs_used()) : "-", Time(c.create_time())});
+    }
+    table.Print(out);
+    PrintUnreadable(list.unreadable(), out);
+}
+
+void PrintContainerList(const v1::ListContainersResponse& list, bool json, std::ostream& out) {
+    if (json) return PrintJson(list, out);
+    Table table({"id", "from", "struck [m^3]", "heaped [m^3]", "area [m^2]", "depth [m]", "points",
+                 "calibration", "created"});
+    for (const v1::Container& c : list.containers()) {
+        table.AddRow({c.container_id(), Kind(c.registered_from()), Fixed(c.struck_capacity_m3(), 4),
+                      Fixed(c.heaped_capacity_m3(), 4), Fixed(c.opening_area_m2(), 3),
+                      Fixed(c.depth_m(), 3), absl::StrCat(c.scan_points()),
+                      c.calibration_id().empty() ? "-" : c.calibration_id(),
+                      Time(c.create_time())});
+    }
+    table.Print(out);
+    PrintUnreadable(list.unreadable(), out);
+}
+
+}  // namespace soilvol::client

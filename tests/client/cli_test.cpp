@@ -1,0 +1,86 @@
+#include "client/cli.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "client/connection.hpp"
+
+namespace soilvol::client {
+namespace {
+
+// A port nothing listens on: connections are refused at once.
+constexpr const char* kDeadServer = "127.0.0.1:1";
+
+int RunSoilvol(std::vector<const char*> args) {
+    args.insert(args.begin(), "soilvol");
+    return RunCli(static_cast<int>(args.size()), args.data());
+}
+
+TEST(Cli, HelpExitsZero) {
+    testing::internal::CaptureStdout();
+    EXPECT_EQ(RunSoilvol({"--help"}), kExitOk);
+    EXPECT_NE(testing::internal::GetCapturedStdout().find("demo"), std::string::npos);
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+    const std::vector<std::vector<const char*>> cases = {
+        {},
+        {"nosuchcommand"},
+        {"estimate", "--cloud", "scan.ply"},
+        {"estimate", "--id", "x", "--cloud", "a.ply", "--left", "l.png"},
+        {"estimate", "--id", "x", "--method", "magic", "--cloud", "a.ply"},
+        {"register", "--id", "x", "--cloud", "a.ply"},
+        {"calibrate", "--parameters", "p.json", "--cols", "9"},
+        {"containers"},
+        {"containers", "get"},
+        {"demo", "--fills", "0,3"},
+        {"demo", "--container", "barrel"},
+        {"health", "--timeout-s", "-1"},
+    };
+    for (const auto& args : cases) {
+        testing::internal::CaptureStderr();
+        EXPECT_EQ(RunSoilvol(args), kExitUsage) << (args.empty() ? "(none)" : args[0]);
+        testing::internal::GetCapturedStderr();
+    }
+}
+
+TEST(Cli, UnreadableFileNamesItAndExitsTwoBeforeAnyRpc) {
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(RunSoilvol({"estimate", "--id", "x", "--cloud", "/nonexistent/scan.ply", "--json",
+                          "--server", kDeadServer}),
+              kExitUsage);
+    EXPECT_EQ(testing::internal::GetCapturedStderr(),
+              "error: cannot read '/nonexistent/scan.ply': No such file or directory\n");
+}
+
+TEST(Cli, MalformedCornersExitTwo) {
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(RunSoilvol({"register", "--id", "x", "--cloud", "/dev/null", "--corners",
+                          "1,2,3;4,5,6", "--server", kDeadServer}),
+              kExitUsage);
+    EXPECT_NE(testing::internal::GetCapturedStderr().find("--corners needs 4 points"),
+              std::string::npos);
+}
+
+TEST(Cli, FailedRpcPrintsCodeNameAndExitsOne) {
+    for (const auto& args : std::vector<std::vector<const char*>>{
+             {"containers", "list", "--server", kDeadServer},
+             {"--server", kDeadServer, "--json", "calibrations", "get", "rig"},
+             {"health", "--timeout-s", "5", "--server", kDeadServer}}) {
+        testing::internal::CaptureStderr();
+        EXPECT_EQ(RunSoilvol(args), kExitRpcError);
+        EXPECT_EQ(testing::internal::GetCapturedStderr().rfind("error: UNAVAILABLE: ", 0), 0u);
+    }
+}
+
+TEST(Cli, StatusCodeNamesAreCanonical) {
+    EXPECT_EQ(StatusCodeName(grpc::StatusCode::NOT_FOUND), "NOT_FOUND");
+    EXPECT_EQ(StatusCodeName(grpc::StatusCode::FAILED_PRECONDITION), "FAILED_PRECONDITION");
+    EXPECT_EQ(StatusCodeName(grpc::StatusCode::UNAUTHENTICATED), "UNAUTHENTICATED");
+    EXPECT_EQ(StatusCodeName(static_cast<grpc::StatusCode>(42)), "CODE_42");
+}
+
+}  // namespace
+}  // namespace soilvol::client

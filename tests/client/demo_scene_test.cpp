@@ -1,0 +1,37 @@
+#include "client/demo_scene.hpp"
+
+#include <gtest/gtest.h>
+
+namespace soilvol::client {
+namespace {
+
+TEST(DemoRigParameters, CarryTheWholeRig) {
+    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, true, 1);
+    const v1::StereoParameters p = DemoRigParameters(setup);
+    EXPECT_EQ(p.image_width(), 640);
+    EXPECT_EQ(p.image_height(), 480);
+    EXPECT_EQ(p.rotation_size(), 9);
+    ASSERT_EQ(p.translation_m_size(), 3);
+    EXPECT_NEAR(p.translation_m(0), -0.10, 1e-3);  // right camera 10 cm to the right
+    EXPECT_GT(p.left().fx(), 0.0);
+    EXPECT_EQ(p.left().distortion_size(), 5);
+    EXPECT_GE(setup.view.distance_m, 2.5);  // the opening fits the image from there
+}
+
+TEST(SimulateDemoScan, CloudScansAreSeededPlyWithTheirTruth) {
+    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, false, 3);
+    const auto empty = SimulateDemoScan(setup, 0.0, 0, "");
+    const auto half = SimulateDemoScan(setup, 0.5, 1, "");
+    ASSERT_TRUE(empty.ok() && half.ok());
+    ASSERT_TRUE(empty->scan.has_cloud());
+    EXPECT_EQ(empty->scan.cloud().data().rfind("ply\n", 0), 0u);
+    EXPECT_EQ(empty->opening.corners_size(), 4);
+    EXPECT_EQ(empty->opening.pixel_corners_size(), 0);
+    EXPECT_DOUBLE_EQ(empty->true_volume_m3, 0.0);
+    EXPECT_NEAR(half->true_volume_m3 / half->struck_capacity_m3, 0.5, 0.05);
+    EXPECT_EQ(SimulateDemoScan(setup, 0.5, 1, "")->scan.cloud().data(), half->scan.cloud().data());
+    EXPECT_NE(SimulateDemoScan(setup, 0.5, 2, "")->scan.cloud().data(), half->scan.cloud().data());
+}
+
+}  // namespace
+}  // namespace soilvol::client
