@@ -35,7 +35,6 @@ void Dispatcher::Submit(CallContext context, Work work, Done done) {
         auto& [ctx, run_work, run_done] = *state;
         CallRecord record;
         record.queue_ms = MsSince(ctx.received);
-        metrics_.SetLoad(static_cast<double>(pool_.running()), static_cast<double>(pool_.queued()));
         absl::Status status;
         if (Clock::now() >= ctx.deadline) {
             status = absl::DeadlineExceededError(
@@ -65,7 +64,6 @@ void Dispatcher::Submit(CallContext context, Work work, Done done) {
                                 pool_.max_queue(), " requests are waiting; retry later")),
                run_done);
     }
-    metrics_.SetLoad(static_cast<double>(pool_.running()), static_cast<double>(pool_.queued()));
 }
 
 void Dispatcher::Refuse(const CallContext& context, const absl::Status& status) {

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -13,10 +14,12 @@ constexpr double kMinCellM = 0.005;
 constexpr double kMaxCellM = 2.0;
 constexpr double kMaxCells = 1e6;
 constexpr double kMaxDensityKgM3 = 30000.0;
+constexpr double kPaperMinPointsPerCell = 4.0;
 
 /// The engine settings a request asks for, checked against the container.
 absl::StatusOr<pipeline::EstimateConfig> EstimateConfigFor(const v1::EstimateVolumeRequest& request,
-                                                           const v1::Container& container) {
+                                                           const v1::Container& container,
+                                                           const model::ContainerModel& model) {
     pipeline::EstimateConfig config;
     switch (request.method()) {
         case v1::ESTIMATION_METHOD_UNSPECIFIED:
@@ -41,6 +44,19 @@ absl::StatusOr<pipeline::EstimateConfig> EstimateConfigFor(const v1::EstimateVol
             return absl::InvalidArgumentError(
                 absl::StrCat("grid_cell_m: ", cell, " m gives ", static_cast<long long>(cells),
                              " cells over the opening; at most ", kMaxCells, " are allowed"));
+        }
+        // The paper's per-cell planes need points in (nearly) every cell; below that its hole
+        // filling extrapolates far planes into nonsense. The registration scan's density tells.
+        const double density =
+            static_cast<double>(model.inside.size()) / std::max(container.opening_area_m2(), 1e-9);
+        const double per_cell = density * cell * cell;
+        if (config.method == volume::Method::kPaper && per_cell < kPaperMinPointsPerCell) {
+            return absl::FailedPreconditionError(
+                absl::StrCat("grid_cell_m: ", cell, " m cells would hold about ", per_cell,
+                             " points each (registration scan density); the paper method needs ",
+                             kPaperMinPointsPerCell, ": use cells of at least ",
+                             std::sqrt(kPaperMinPointsPerCell / std::max(density, 1e-9)),
+                             " m or the heightmap method"));
         }
         config.heightmap.cell_m = cell;
         config.paper.cell_m = cell;
@@ -91,7 +107,7 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     if (!request.request_id().empty()) record.ids.push_back({"request", request.request_id()});
     SOILVOL_ASSIGN_OR_RETURN(auto container, LoadContainer(request.container_id(), "container_id"));
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::EstimateConfig config,
-                             EstimateConfigFor(request, container->info));
+                             EstimateConfigFor(request, container->info, container->model));
     SOILVOL_RETURN_IF_ERROR(CheckSameSensor(request.scan(), container->info));
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan,
                              DecodeScan(request.scan(), container->info.calibration_id(), record));

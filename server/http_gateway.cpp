@@ -1,5 +1,9 @@
 #include "server/http_gateway.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
 #include <algorithm>
 #include <chrono>
 #include <future>
@@ -74,6 +78,26 @@ absl::Status SetField(google::protobuf::Message* message, const std::string& nam
             absl::StrCat(field->name(), ": '", value, "' is not a valid value"));
     }
     return absl::OkStatus();
+}
+
+// Debian's cpp-httplib is a compiled library built with a listen backlog of 5, so a burst of
+// new connections overflows the accept queue before the pool can answer 429. Linux lets a
+// listening socket's backlog be raised by calling listen() again: find ours by its port.
+void RaiseListenBacklog(int port) {
+    for (int fd = 0; fd < 4096; ++fd) {
+        int listening = 0;
+        socklen_t size = sizeof(listening);
+        if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &size) != 0 || !listening) {
+            continue;
+        }
+        sockaddr_storage address{};
+        socklen_t length = sizeof(address);
+        if (getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) continue;
+        const int bound = address.ss_family == AF_INET6
+                              ? ntohs(reinterpret_cast<sockaddr_in6*>(&address)->sin6_port)
+                              : ntohs(reinterpret_cast<sockaddr_in*>(&address)->sin_port);
+        if (bound == port) listen(fd, SOMAXCONN);
+    }
 }
 
 }  // namespace
@@ -168,6 +192,7 @@ absl::StatusOr<int> HttpGateway::Start() {
         return absl::UnavailableError(
             absl::StrCat("--http-address: cannot listen on ", options_.address));
     }
+    RaiseListenBacklog(bound);
     thread_ = std::thread([this] { server_->listen_after_bind(); });
     return bound;
 }

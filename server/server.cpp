@@ -53,7 +53,11 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     absl::StatusOr<std::unique_ptr<EntryStore>> store = EntryStore::Open(o.data_dir);
     if (!store.ok()) return store.status();
     p.store = *std::move(store);
-    p.pool = std::make_unique<WorkerPool>(o.workers, o.max_queue);
+    Metrics* metrics = &p.metrics;
+    p.pool = std::make_unique<WorkerPool>(
+        o.workers, o.max_queue, [metrics](std::size_t running, std::size_t queued) {
+            metrics->SetLoad(static_cast<double>(running), static_cast<double>(queued));
+        });
     p.metrics.SetWorkers(o.workers, o.max_queue);
     p.dispatcher = std::make_unique<Dispatcher>(*p.pool, p.metrics);
     p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store);

@@ -5,8 +5,8 @@
 
 namespace soilvol::server {
 
-WorkerPool::WorkerPool(int workers, int max_queue)
-    : max_queue_(static_cast<std::size_t>(max_queue)) {
+WorkerPool::WorkerPool(int workers, int max_queue, LoadListener listener)
+    : max_queue_(static_cast<std::size_t>(max_queue)), listener_(std::move(listener)) {
     threads_.reserve(static_cast<std::size_t>(workers));
     for (int i = 0; i < workers; ++i) threads_.emplace_back([this] { Loop(); });
 }
@@ -19,6 +19,7 @@ bool WorkerPool::TrySubmit(Task& task) {
         const std::size_t idle_workers = threads_.size() - std::min(threads_.size(), running_);
         if (stopping_ || queue_.size() >= max_queue_ + idle_workers) return false;
         queue_.push_back(std::move(task));
+        NotifyLocked();
     }
     work_ready_.notify_one();
     return true;
@@ -34,11 +35,13 @@ void WorkerPool::Loop() {
             task = std::move(queue_.front());
             queue_.pop_front();
             ++running_;
+            NotifyLocked();
         }
         task.run();
         {
             std::lock_guard<std::mutex> lock(mutex_);
             --running_;
+            NotifyLocked();
         }
         idle_.notify_all();
     }
@@ -52,6 +55,7 @@ bool WorkerPool::Shutdown(std::chrono::milliseconds grace) {
         idle_.wait_for(lock, grace, [this] { return queue_.empty() && running_ == 0; });
         stopping_ = true;
         rejected.swap(queue_);
+        NotifyLocked();
     }
     work_ready_.notify_all();
     for (Task& task : rejected) task.reject();

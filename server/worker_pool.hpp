@@ -22,7 +22,10 @@ class WorkerPool {
         std::function<void()> reject;
     };
 
-    WorkerPool(int workers, int max_queue);
+    /// Called with (running, queued) after every change, under the pool's lock: keep it cheap.
+    using LoadListener = std::function<void(std::size_t running, std::size_t queued)>;
+
+    WorkerPool(int workers, int max_queue, LoadListener listener = {});
     ~WorkerPool();
     WorkerPool(const WorkerPool&) = delete;
     WorkerPool& operator=(const WorkerPool&) = delete;
@@ -43,8 +46,12 @@ class WorkerPool {
 
   private:
     void Loop();
+    void NotifyLocked() const {
+        if (listener_) listener_(running_, queue_.size());
+    }
 
     const std::size_t max_queue_;
+    const LoadListener listener_;
     mutable std::mutex mutex_;
     std::condition_variable work_ready_;
     std::condition_variable idle_;

@@ -81,13 +81,18 @@ class Server:
     def alive(self):
         return self.proc is not None and self.proc.poll() is None
 
+    def close(self):
+        """stop(), then removes the data directory when this object created it."""
+        code = self.stop()
+        if self.own_dir:
+            shutil.rmtree(self.data_dir, ignore_errors=True)
+        return code
+
     def __enter__(self):
         return self.start()
 
     def __exit__(self, *exc):
-        self.stop()
-        if self.own_dir:
-            shutil.rmtree(self.data_dir, ignore_errors=True)
+        self.close()
 
     def rest(self, method, path, body=None, raw=None, headers=None, timeout_s=120):
         """(HTTP status, parsed JSON or text) for one request. `raw` sends bytes as they are."""

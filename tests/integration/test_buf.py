@@ -56,7 +56,7 @@ class BufCurl(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        cls.server.stop()
+        cls.server.close()
         shutil.rmtree(cls.tmp, ignore_errors=True)
 
     def buf(self, *args):

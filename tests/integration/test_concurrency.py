@@ -91,7 +91,7 @@ class Backpressure(unittest.TestCase):
     @classmethod
     def tearDownClass(cls):
         cls.client.close()
-        cls.server.stop()
+        cls.server.close()
 
     def check_outcomes(self, outcomes):
         """outcomes: (True, volume) or (False, (code, message)) per call."""
@@ -176,7 +176,6 @@ class Backpressure(unittest.TestCase):
         print(f"\nrest: {ok} answered, {refused} refused", file=sys.stderr)
 
     @unittest.skipUnless(shutil.which("ss"), "ss (iproute2) is not installed")
-    @unittest.expectedFailure  # server bug: httplib's default listen backlog of 5
     def test_rest_listen_backlog_fits_a_burst(self):
         # A burst of new REST connections larger than the listen backlog is dropped by the
         # kernel (clients retry after 1 s) or, with SYN cookies, reset mid-request, instead of
@@ -188,7 +187,6 @@ class Backpressure(unittest.TestCase):
         backlog = int(listing[2])  # Send-Q of a listening socket
         self.assertGreaterEqual(backlog, 12)
 
-    @unittest.expectedFailure  # server bug: the load gauges are only set when work starts
     def test_load_gauges_return_to_zero_when_idle(self):
         request = pb.EstimateVolumeRequest(container_id="load-box", scan=cloud(self.scan))
         self.client.stub.EstimateVolume(request, timeout=60)
@@ -385,9 +383,9 @@ class GracefulShutdown(unittest.TestCase):
 
     def start_estimates(self, server, client, count):
         client.stub.RegisterContainer(register_request("slow-box"), timeout=60)
-        # About 0.3 s each on one worker.
-        request = pb.EstimateVolumeRequest(container_id="slow-box",
-                                           scan=cloud(filled_box(0.2, step=0.004)))
+        # A small scan on 5 mm cells: over half a second each on one worker.
+        request = pb.EstimateVolumeRequest(container_id="slow-box", scan=cloud(filled_box(0.2)),
+                                           grid_cell_m=0.005)
         futures = [client.stub.EstimateVolume.future(request, timeout=60) for _ in range(count)]
         # The gauges are set as calls are accepted: one running and the rest queued.
         accepted = wait_until(lambda: server_metric(server, "soilvol_in_flight") +
@@ -425,11 +423,11 @@ class GracefulShutdown(unittest.TestCase):
             codes = [client.code_of(f.result)[0] for f in futures]
             for code in codes:
                 self.assertIn(code, (CODE.OK, CODE.UNAVAILABLE, CODE.CANCELLED), codes)
-            # The queued calls cannot all have run: 4 x 0.3 s of work, 0.1 s of grace.
+            # The queued calls cannot all have run: 4 x 0.5 s of work, 0.1 s of grace.
             self.assertIn(CODE.UNAVAILABLE, codes)
             self.assertEqual(server.proc.wait(10), 0)
             # The grace period plus the computation running when it ended.
-            self.assertLess(time.monotonic() - sent, 3.0)
+            self.assertLess(time.monotonic() - sent, 5.0)
             client.close()
         self.assertTrue(any(re.search(r"\bstopped\b", line) for line in server.log))
 

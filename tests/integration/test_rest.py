@@ -29,7 +29,7 @@ class RestFlow(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        cls.server.stop()
+        cls.server.close()
 
     def register(self, cid, overwrite=False, **extra):
         body = {"containerId": cid, "scan": cloud_scan(self.empty),
