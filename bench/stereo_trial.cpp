@@ -23,18 +23,7 @@ StereoSetup PaperRig(sim::ContainerKind kind, int width, int height) {
     setup.rig.image_width = width;
     setup.rig.image_height = height;
     setup.view = sim::ViewpointFor(kind);
-    // As near as 2.5 m as the whole opening stays 40 px inside the image (the paper: 2-3 m).
-    const sim::ContainerGeometry container = sim::MakeContainer(kind);
-    for (setup.view.distance_m = 2.5; setup.view.distance_m < 8.0; setup.view.distance_m += 0.25) {
-        const Pose T_left_container = sim::NominalScanPose(setup.view);
-        bool inside = true;
-        for (const Eigen::Vector3d& corner : container.opening_corners) {
-            const Eigen::Vector2d px = sim::ProjectLeft(setup.rig, T_left_container * corner);
-            inside = inside && px.allFinite() && px.x() > 40 && px.y() > 40 &&
-                     px.x() < width - 40 && px.y() < height - 40;
-        }
-        if (inside) break;
-    }
+    setup.view.distance_m = sim::FramingDistance(kind, setup.view, setup.rig);
     return setup;
 }
 

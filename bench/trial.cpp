@@ -13,17 +13,7 @@ sim::SensorSpec PaperSensor(sim::ContainerKind container) {
     return sensor;
 }
 
-std::string ContainerName(sim::ContainerKind kind) {
-    switch (kind) {
-        case sim::ContainerKind::kPaperBucket:
-            return "paper bucket 2.05x0.54x0.6 m";
-        case sim::ContainerKind::kExcavatorBucket:
-            return "excavator bucket 1.2x1.0 m, sloped";
-        case sim::ContainerKind::kTruckBed:
-            return "truck bed 4.0x2.2x0.8 m";
-    }
-    return "unknown";
-}
+std::string ContainerName(sim::ContainerKind kind) { return sim::ContainerDescription(kind); }
 
 RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
     sim::SceneSpec spec;

@@ -2,42 +2,12 @@
 
 #include "absl/strings/str_format.h"
 #include "core/io/cloud_codec.hpp"
+#include "core/sim/stereo_renderer.hpp"
 #include "core/sim/tof_sensor.hpp"
 #include "core/stereo/image_codec.hpp"
 
 namespace soilvol::client {
 namespace {
-
-std::string ContainerName(sim::ContainerKind kind) {
-    switch (kind) {
-        case sim::ContainerKind::kPaperBucket:
-            return "paper bucket 2.05x0.54x0.6 m";
-        case sim::ContainerKind::kExcavatorBucket:
-            return "excavator bucket 1.2x1.0 m, sloped";
-        case sim::ContainerKind::kTruckBed:
-            return "truck bed 4.0x2.2x0.8 m";
-    }
-    return "unknown container";
-}
-
-// As bench/stereo_trial.cpp's PaperRig: as near as 2.5 m as the opening stays 40 px inside.
-double StereoDistance(const DemoSetup& setup) {
-    const sim::ContainerGeometry container = sim::MakeContainer(setup.kind);
-    sim::SensorSpec view = setup.view;
-    const double w = setup.rig.image_width;
-    const double h = setup.rig.image_height;
-    for (view.distance_m = 2.5; view.distance_m < 8.0; view.distance_m += 0.25) {
-        const Pose T_left_container = sim::NominalScanPose(view);
-        bool inside = true;
-        for (const Eigen::Vector3d& corner : container.opening_corners) {
-            const Eigen::Vector2d px = sim::ProjectLeft(setup.rig, T_left_container * corner);
-            inside = inside && px.allFinite() && px.x() > 40 && px.y() > 40 && px.x() < w - 40 &&
-                     px.y() < h - 40;
-        }
-        if (inside) break;
-    }
-    return view.distance_m;
-}
 
 void SetIntrinsics(const CameraIntrinsics& in, v1::CameraIntrinsics* out) {
     out->set_fx(in.fx);
@@ -96,7 +66,7 @@ DemoSetup MakeDemoSetup(sim::ContainerKind kind, bool stereo, uint64_t seed) {
     setup.view.range_noise_sigma_m = 0.04;
     setup.view.angular_resolution_deg = 0.5;
     setup.depth_m = sim::MakeContainer(kind).depth_m;
-    if (stereo) setup.view.distance_m = StereoDistance(setup);
+    if (stereo) setup.view.distance_m = sim::FramingDistance(setup.kind, setup.view, setup.rig);
     return setup;
 }
 
@@ -105,14 +75,14 @@ std::string DescribeDemo(const DemoSetup& setup) {
         return absl::StrFormat(
             "%s, rendered %dx%d stereo pairs, %.0f cm baseline, %.2f m away, exact rig "
             "parameters, container moved up to %.0f deg / %.0f cm between pairs",
-            ContainerName(setup.kind), setup.rig.image_width, setup.rig.image_height,
+            sim::ContainerDescription(setup.kind), setup.rig.image_width, setup.rig.image_height,
             setup.rig.baseline_m * 100, setup.view.distance_m, setup.jitter.max_rotation_deg,
             setup.jitter.max_translation_m * 100);
     }
     return absl::StrFormat(
         "%s, simulated time-of-flight sensor (%.0f cm noise, %.1f deg) %.2f m away, container "
         "moved up to %.0f deg / %.0f cm between scans",
-        ContainerName(setup.kind), setup.view.range_noise_sigma_m * 100,
+        sim::ContainerDescription(setup.kind), setup.view.range_noise_sigma_m * 100,
         setup.view.angular_resolution_deg, setup.view.distance_m, setup.jitter.max_rotation_deg,
         setup.jitter.max_translation_m * 100);
 }

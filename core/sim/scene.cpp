@@ -61,4 +61,16 @@ double TrueSoilVolume(const ContainerGeometry& container, const SoilSpec& soil,
     return SoilSurface(container, soil, soil_seed).Volume(kTruthCellM);
 }
 
+std::string ContainerDescription(ContainerKind kind) {
+    switch (kind) {
+        case ContainerKind::kPaperBucket:
+            return "paper bucket 2.05x0.54x0.6 m";
+        case ContainerKind::kExcavatorBucket:
+            return "excavator bucket 1.2x1.0 m, sloped";
+        case ContainerKind::kTruckBed:
+            return "truck bed 4.0x2.2x0.8 m";
+    }
+    return "unknown container";
+}
+
 }  // namespace soilvol::sim

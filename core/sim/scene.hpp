@@ -40,6 +40,9 @@ struct ContainerGeometry {
 /// Builds the exact geometry of one container kind.
 ContainerGeometry MakeContainer(ContainerKind kind);
 
+/// "paper bucket 2.05x0.54x0.6 m", ... for reports.
+std::string ContainerDescription(ContainerKind kind);
+
 /// Struck capacity plus a heap rising at `heap_slope` (vertical:horizontal) from the opening
 /// edges [m^3]: slope 1 for SAE J296, 0.5 for ISO 7546. A negative slope counts as 0.
 double HeapedCapacity(const ContainerGeometry& container, double heap_slope);

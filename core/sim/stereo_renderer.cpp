@@ -153,4 +153,22 @@ StereoScene RenderStereoScene(const SceneSpec& spec, const StereoRigSpec& rig) {
     return scene;
 }
 
+double FramingDistance(ContainerKind kind, SensorSpec view, const StereoRigSpec& rig,
+                       double margin_px) {
+    const ContainerGeometry container = MakeContainer(kind);
+    const double w = rig.image_width;
+    const double h = rig.image_height;
+    for (view.distance_m = 2.5; view.distance_m < 8.0; view.distance_m += 0.25) {
+        const Pose T_left_container = NominalScanPose(view);
+        bool inside = true;
+        for (const Eigen::Vector3d& corner : container.opening_corners) {
+            const Eigen::Vector2d px = ProjectLeft(rig, T_left_container * corner);
+            inside = inside && px.allFinite() && px.x() > margin_px && px.y() > margin_px &&
+                     px.x() < w - margin_px && px.y() < h - margin_px;
+        }
+        if (inside) break;
+    }
+    return view.distance_m;
+}
+
 }  // namespace soilvol::sim

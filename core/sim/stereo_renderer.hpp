@@ -35,6 +35,11 @@ StereoParameters RigParameters(const StereoRigSpec& rig);
 Eigen::Vector2d ProjectLeft(const StereoRigSpec& rig, const Eigen::Vector3d& X_left);
 Eigen::Vector2d ProjectRight(const StereoRigSpec& rig, const Eigen::Vector3d& X_left);
 
+/// The nearest distance [m] from 2.5 m (in 0.25 m steps, below 8 m) at which `view` sees the
+/// whole opening of `kind` at least `margin_px` inside the left image (the paper: 2-3 m).
+double FramingDistance(ContainerKind kind, SensorSpec view, const StereoRigSpec& rig,
+                       double margin_px = 40.0);
+
 /// A rendered stereo view of a simulated scene with its exact ground truth.
 struct StereoScene {
     GreyImage left;
