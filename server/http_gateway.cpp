@@ -173,13 +173,20 @@ absl::StatusOr<int> HttpGateway::Start() {
     server_->Options(".*", handler);
     // Errors httplib raises itself (413 for oversize bodies, 400 for bad requests) get the
     // same JSON body as ours; ours already have one.
-    server_->set_error_handler([this](const httplib::Request&, httplib::Response& response) {
+    server_->set_error_handler([this](const httplib::Request& request,
+                                      httplib::Response& response) {
         if (!response.body.empty()) return;
+        // httplib caps form-encoded bodies (curl -d's default type) at 8 KiB.
+        const bool form = request.get_header_value("Content-Type")
+                              .rfind("application/x-www-form-urlencoded", 0) == 0;
         const absl::Status status =
-            response.status == 413
-                ? absl::ResourceExhaustedError(absl::StrCat("request body exceeds the limit of ",
-                                                            options_.max_body_bytes, " bytes"))
-                : absl::InvalidArgumentError(absl::StrCat("HTTP ", response.status));
+            response.status != 413
+                ? absl::InvalidArgumentError(absl::StrCat("HTTP ", response.status))
+            : form ? absl::ResourceExhaustedError(
+                         "a form-encoded body is limited to 8 KiB: send the JSON with "
+                         "Content-Type: application/json")
+                   : absl::ResourceExhaustedError(absl::StrCat("request body exceeds the limit of ",
+                                                               options_.max_body_bytes, " bytes"));
         response.set_content(ErrorJson(status), kJson);
     });
     server_->set_exception_handler(
