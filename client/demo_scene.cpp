@@ -5,17 +5,10 @@
 #include "core/sim/stereo_renderer.hpp"
 #include "core/sim/tof_sensor.hpp"
 #include "core/stereo/image_codec.hpp"
+#include "server/proto_convert.hpp"
 
 namespace soilvol::client {
 namespace {
-
-void SetIntrinsics(const CameraIntrinsics& in, v1::CameraIntrinsics* out) {
-    out->set_fx(in.fx);
-    out->set_fy(in.fy);
-    out->set_cx(in.cx);
-    out->set_cy(in.cy);
-    for (const double k : in.distortion) out->add_distortion(k);
-}
 
 absl::StatusOr<DemoScan> StereoScan(const sim::SceneSpec& spec, const DemoSetup& setup,
                                     const std::string& calibration_id) {
@@ -90,14 +83,7 @@ std::string DescribeDemo(const DemoSetup& setup) {
 v1::StereoParameters DemoRigParameters(const DemoSetup& setup) {
     const StereoParameters exact = sim::RigParameters(setup.rig);
     v1::StereoParameters out;
-    out.set_image_width(exact.image_width);
-    out.set_image_height(exact.image_height);
-    SetIntrinsics(exact.left, out.mutable_left());
-    SetIntrinsics(exact.right, out.mutable_right());
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) out.add_rotation(exact.R_right_left(r, c));
-        out.add_translation_m(exact.t_right_left_m(r));
-    }
+    server::ToProto(exact, &out);
     return out;
 }
 
