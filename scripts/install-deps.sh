@@ -9,9 +9,9 @@ packages=(
     libopencv-dev opencv-doc
     libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc grpc-proto
     libcpp-httplib-dev prometheus-cpp-dev libspdlog-dev
-    python3 python3-grpcio python3-protobuf python3-numpy curl
+    python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
-    clang-format
+    clang-format shellcheck yamllint
 )
 
 missing=()

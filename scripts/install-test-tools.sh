@@ -1,36 +1,46 @@
 #!/usr/bin/env bash
-# Installs the optional tools of the integration tests: buf (npm @bufbuild/buf), for
-# tests/integration/test_buf.py, into ${SOILVOL_TOOLS_DIR:-$HOME/.cache/soilvol-tools}.
-# Idempotent. Always exits 0: without npm or the npm registry it prints a warning, and the buf
-# test skips itself.
+# Installs the npm tools of the tests and static checks into
+# ${SOILVOL_TOOLS_DIR:-$HOME/.cache/soilvol-tools}, pinned:
+#   @bufbuild/buf      tests/integration/test_buf.py (gRPC through server reflection)
+#   dockerfile-utils   docker/Dockerfile lint            (scripts/check-static.sh)
+#   dclint             docker/compose.yaml schema + lint (scripts/check-static.sh)
+#   kubernetes-models  deploy/ schema validation         (tests/ship/check-deploy.sh)
+#   yaml               YAML parser of tests/ship/validate_k8s.js
+# Idempotent. Exits 0 without npm or the registry (a warning; test_buf.py skips itself), unless
+# SOILVOL_REQUIRE_TOOLS=1 (CI), where a missing tool is an error.
 set -uo pipefail
 
 tools_dir="${SOILVOL_TOOLS_DIR:-$HOME/.cache/soilvol-tools}"
-buf_version="${SOILVOL_BUF_VERSION:-1.75.0}"
-buf="$tools_dir/node_modules/.bin/buf"
+stamp="$tools_dir/installed.txt"
+packages=(
+    "@bufbuild/buf@${SOILVOL_BUF_VERSION:-1.75.0}"
+    "dockerfile-utils@0.16.3"
+    "dclint@3.1.0"
+    "kubernetes-models@4.5.1"
+    "yaml@2.9.1"
+)
+wanted="${packages[*]}"
 
-warn() { echo "install-test-tools: warning: $*; test_buf.py will be skipped" >&2; }
+fail() {
+    if [ "${SOILVOL_REQUIRE_TOOLS:-0}" = "1" ]; then
+        echo "install-test-tools: error: $*" >&2
+        exit 1
+    fi
+    echo "install-test-tools: warning: $*; the tests that need them skip themselves" >&2
+    exit 0
+}
 
-if [ -x "$buf" ] && installed="$("$buf" --version 2>/dev/null)" && [ "$installed" = "$buf_version" ]; then
-    echo "install-test-tools: buf $installed already in $tools_dir"
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$wanted" ] && [ -x "$tools_dir/node_modules/.bin/buf" ]; then
+    echo "install-test-tools: $wanted already in $tools_dir"
     exit 0
 fi
-if ! command -v npm >/dev/null 2>&1; then
-    warn "npm is not installed (apt-get install npm)"
-    exit 0
-fi
-if ! mkdir -p "$tools_dir"; then
-    warn "cannot create $tools_dir"
-    exit 0
-fi
-echo "install-test-tools: installing @bufbuild/buf@$buf_version into $tools_dir"
+command -v npm >/dev/null 2>&1 || fail "npm is not installed (Node.js with npm)"
+mkdir -p "$tools_dir" || fail "cannot create $tools_dir"
+echo "install-test-tools: installing $wanted into $tools_dir"
 if ! timeout 600 npm install --prefix "$tools_dir" --no-audit --no-fund --no-save \
-        --fetch-retries 1 --fetch-timeout 60000 "@bufbuild/buf@$buf_version" >/dev/null; then
-    warn "npm install @bufbuild/buf@$buf_version failed (is the npm registry reachable?)"
-    exit 0
+        --fetch-retries 1 --fetch-timeout 60000 "${packages[@]}" >/dev/null; then
+    fail "npm install failed (is the npm registry reachable?)"
 fi
-if ! installed="$("$buf" --version 2>/dev/null)"; then
-    warn "$buf was installed but does not run"
-    exit 0
-fi
-echo "install-test-tools: buf $installed installed in $tools_dir"
+"$tools_dir/node_modules/.bin/buf" --version >/dev/null 2>&1 || fail "buf was installed but does not run"
+echo "$wanted" >"$stamp"
+echo "install-test-tools: installed in $tools_dir"

@@ -1,6 +1,10 @@
 """Starts real soilvol-server processes on ephemeral ports with temporary data directories,
 and talks to them over REST (urllib). Paths come from the environment that CTest sets:
-SOILVOL_SERVER_BIN, SOILVOL_CLI_BIN, SOILVOL_PROTO_PYTHON."""
+SOILVOL_SERVER_BIN, SOILVOL_CLI_BIN, SOILVOL_PROTO_PYTHON.
+
+External mode: with SOILVOL_EXTERNAL_GRPC (host:port) and SOILVOL_EXTERNAL_HTTP (http://host:port)
+set, `shared_server()` is that running server (the compose integration container, run_suite.py)
+and the tests that need a process of their own (flags, signals, logs, data directories) skip."""
 import base64
 import json
 import os
@@ -12,14 +16,37 @@ import sys
 import tempfile
 import threading
 import time
+import unittest
 import urllib.error
 import urllib.request
 
 SERVER_BIN = os.environ.get("SOILVOL_SERVER_BIN", "build/server/soilvol-server")
 CLI_BIN = os.environ.get("SOILVOL_CLI_BIN", "build/client/soilvol")
+EXTERNAL_GRPC = os.environ.get("SOILVOL_EXTERNAL_GRPC")
+EXTERNAL_HTTP = os.environ.get("SOILVOL_EXTERNAL_HTTP")
+EXTERNAL = bool(EXTERNAL_GRPC or EXTERNAL_HTTP)
 
 
-class Server:
+class RestClient:
+    """REST calls to `self.base_url`."""
+
+    def rest(self, method, path, body=None, raw=None, headers=None, timeout_s=120):
+        """(HTTP status, parsed JSON or text) for one request. `raw` sends bytes as they are."""
+        data = raw if raw is not None else (json.dumps(body).encode() if body is not None else None)
+        hdrs = {"Content-Type": "application/json"}
+        hdrs.update(headers or {})
+        req = urllib.request.Request(self.base_url + path, method=method, data=data, headers=hdrs)
+        try:
+            with urllib.request.urlopen(req, timeout=timeout_s) as r:
+                status, text, ctype = r.status, r.read().decode(), r.headers.get("Content-Type", "")
+        except urllib.error.HTTPError as e:
+            status, text, ctype = e.code, e.read().decode(), e.headers.get("Content-Type", "")
+        if "json" in ctype:
+            return status, json.loads(text) if text else None
+        return status, text
+
+
+class Server(RestClient):
     """One soilvol-server process. Use as a context manager, or call start()/stop()."""
 
     def __init__(self, data_dir=None, args=(), env=None):
@@ -31,6 +58,7 @@ class Server:
         self.grpc_port = None
         self.http_port = None
         self.log = []
+        self.own_process = True
         self._listening = threading.Event()
 
     def start(self, timeout_s=30):
@@ -94,20 +122,52 @@ class Server:
     def __exit__(self, *exc):
         self.close()
 
-    def rest(self, method, path, body=None, raw=None, headers=None, timeout_s=120):
-        """(HTTP status, parsed JSON or text) for one request. `raw` sends bytes as they are."""
-        data = raw if raw is not None else (json.dumps(body).encode() if body is not None else None)
-        hdrs = {"Content-Type": "application/json"}
-        hdrs.update(headers or {})
-        req = urllib.request.Request(self.base_url + path, method=method, data=data, headers=hdrs)
+
+
+class ExternalServer(RestClient):
+    """A server this process did not start (external mode): same calls as Server, no process,
+    no log."""
+
+    def __init__(self, grpc_target=EXTERNAL_GRPC, base_url=EXTERNAL_HTTP):
+        if not (grpc_target and base_url):
+            raise RuntimeError("external mode needs both SOILVOL_EXTERNAL_GRPC and "
+                               "SOILVOL_EXTERNAL_HTTP")
+        self.grpc_target = grpc_target
+        self.base_url = base_url.rstrip("/")
+        self.log = []
+        self.own_process = False
+
+    def start(self, timeout_s=60):
+        """Waits until the server reports ready on /readyz."""
+        if not wait_until(self.alive, timeout_s=timeout_s, step_s=0.5):
+            raise RuntimeError(f"{self.base_url}/readyz did not answer 200 in {timeout_s} s")
+        return self
+
+    def alive(self):
         try:
-            with urllib.request.urlopen(req, timeout=timeout_s) as r:
-                status, text, ctype = r.status, r.read().decode(), r.headers.get("Content-Type", "")
-        except urllib.error.HTTPError as e:
-            status, text, ctype = e.code, e.read().decode(), e.headers.get("Content-Type", "")
-        if "json" in ctype:
-            return status, json.loads(text) if text else None
-        return status, text
+            return self.rest("GET", "/readyz", timeout_s=5)[0] == 200
+        except OSError:
+            return False
+
+    def stop(self, *_args, **_kwargs):
+        return 0
+
+    def close(self):
+        return 0
+
+
+def shared_server(args=("--workers", "2")):
+    """The server a test class shares: the external one in external mode, else a new process
+    with `args`, started."""
+    if EXTERNAL:
+        return ExternalServer().start()
+    return Server(args=list(args)).start()
+
+
+def needs_own_server(item):
+    """Skips a test or class in external mode: it starts servers with its own flags, signals
+    them or reads their logs."""
+    return unittest.skipIf(EXTERNAL, "needs a server process of its own (external mode)")(item)
 
 
 def b64(data):

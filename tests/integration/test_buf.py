@@ -12,7 +12,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import SKIPPED, Server, cloud_scan, corners_json  # noqa: E402
+from harness import SKIPPED, cloud_scan, corners_json, shared_server  # noqa: E402
 
 TOLERANCE_OF_STRUCK = 0.04  # as test_rest.py
 PROTO = os.path.join(os.path.dirname(__file__), "..", "..", "proto", "soilvol", "v1",
@@ -51,7 +51,7 @@ class BufCurl(unittest.TestCase):
                                  env=cls.env, timeout=60)
         if version.returncode != 0:
             raise RuntimeError(f"{BUF} does not run: {version.stderr}")
-        cls.server = Server(args=["--workers", "2"]).start()
+        cls.server = shared_server()
         cls.url = f"http://{cls.server.grpc_target}"
 
     @classmethod

@@ -18,7 +18,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, cloud_scan, load_grpc, server_metric, wait_until  # noqa: E402
+from harness import (Server, cloud_scan, load_grpc, needs_own_server, server_metric,  # noqa: E402
+                     wait_until)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 
@@ -76,6 +77,7 @@ class Client:
             return e.code(), None
 
 
+@needs_own_server
 class Backpressure(unittest.TestCase):
     """--workers 2 --max-queue 2: four calls fit, the rest are refused at once, none are lost."""
     CALLS = 24
@@ -195,6 +197,7 @@ class Backpressure(unittest.TestCase):
         self.assertEqual(server_metric(self.server, "soilvol_queue_depth"), 0)
 
 
+@needs_own_server
 class SharedDataDir(unittest.TestCase):
     """Two server processes on one data directory: neither may serve a stale cached copy."""
 
@@ -294,6 +297,7 @@ class SharedDataDir(unittest.TestCase):
         print(f"\nrace winners: {dict(wins)}", file=sys.stderr)
 
 
+@needs_own_server
 class KillDuringRegister(unittest.TestCase):
     """SIGKILL during a registration leaves no entry or a complete one: at a random moment of
     the call, or while the entry file is being written (its hidden temp file exists)."""
@@ -377,6 +381,7 @@ class KillDuringRegister(unittest.TestCase):
               f"{len(hidden)} hidden temp files left", file=sys.stderr)
 
 
+@needs_own_server
 class GracefulShutdown(unittest.TestCase):
     """SIGTERM: calls already accepted finish (within the grace period), new ones are refused,
     the process exits 0."""

@@ -9,7 +9,8 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, load_grpc, server_metric, wait_until  # noqa: E402
+from harness import (Server, load_grpc, needs_own_server, server_metric, shared_server,  # noqa: E402
+                     wait_until)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 
@@ -82,7 +83,7 @@ def health_methods(channel):
 class GrpcFlow(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.server = Server(args=["--workers", "2"]).start()
+        cls.server = shared_server()
         cls.channel = grpc.insecure_channel(cls.server.grpc_target)
         cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
         cls.empty = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
@@ -127,7 +128,7 @@ class GrpcFlow(unittest.TestCase):
         got = self.stub.GetCalibration(pb.GetCalibrationRequest(calibration_id="rig"), timeout=10)
         self.assertEqual(got, cal)
         listed = self.stub.ListCalibrations(pb.ListCalibrationsRequest(), timeout=10)
-        self.assertEqual([c.calibration_id for c in listed.calibrations], ["rig"])
+        self.assertIn("rig", [c.calibration_id for c in listed.calibrations])
         self.assertEqual(len(listed.unreadable), 0)
         self.assert_code(lambda: self.stub.Calibrate(
             pb.CalibrateRequest(calibration_id="rig", parameters=params), timeout=30),
@@ -139,7 +140,7 @@ class GrpcFlow(unittest.TestCase):
         self.assert_code(lambda: self.stub.DeleteCalibration(
             pb.DeleteCalibrationRequest(calibration_id="rig"), timeout=10), CODE.NOT_FOUND)
         listed = self.stub.ListCalibrations(pb.ListCalibrationsRequest(), timeout=10)
-        self.assertEqual(len(listed.calibrations), 0)
+        self.assertNotIn("rig", [c.calibration_id for c in listed.calibrations])
 
     def test_register_get_list_estimate(self):
         container = self.register("grpc-box")
@@ -276,14 +277,14 @@ class GrpcFlow(unittest.TestCase):
                         f"{truth_m3(0.2):.3f} m3 of soil, uncertainty {est.uncertainty_m3} m3")
 
     def test_deadlines(self):
-        self.register("deadline-box")
+        self.register("grpc-deadline-box")
         method = {"method": "EstimateVolume", "transport": "grpc"}
         ok_before = server_metric(self.server, "soilvol_requests_total", code="OK", **method)
         late_before = server_metric(self.server, "soilvol_requests_total",
                                     code="DEADLINE_EXCEEDED", **method)
         # 5 mm cells take over half a second to estimate (the scan itself is small): the server
         # must not answer OK after the caller's 150 ms are over, but record DEADLINE_EXCEEDED.
-        slow = pb.EstimateVolumeRequest(container_id="deadline-box", scan=cloud(filled_box(0.2)),
+        slow = pb.EstimateVolumeRequest(container_id="grpc-deadline-box", scan=cloud(filled_box(0.2)),
                                         grid_cell_m=0.005)
         self.assert_code(lambda: self.stub.EstimateVolume(slow, timeout=0.15),
                          CODE.DEADLINE_EXCEEDED)
@@ -292,9 +293,10 @@ class GrpcFlow(unittest.TestCase):
             > late_before, timeout_s=10), "the server never recorded DEADLINE_EXCEEDED")
         self.assertEqual(server_metric(self.server, "soilvol_requests_total", code="OK", **method),
                          ok_before)
-        self.assertTrue(any("deadline expired" in line for line in self.server.log))
+        if self.server.own_process:
+            self.assertTrue(any("deadline expired" in line for line in self.server.log))
 
-        small = pb.EstimateVolumeRequest(container_id="deadline-box", scan=cloud(filled_box(0.2)))
+        small = pb.EstimateVolumeRequest(container_id="grpc-deadline-box", scan=cloud(filled_box(0.2)))
         self.assert_code(lambda: self.stub.EstimateVolume(small, timeout=0.001),
                          CODE.DEADLINE_EXCEEDED)
         # Without a tight deadline the same call works.
@@ -317,6 +319,7 @@ class GrpcFlow(unittest.TestCase):
         stream.cancel()
 
 
+@needs_own_server
 class MessageLimit(unittest.TestCase):
     def test_oversize_request_is_refused_and_server_keeps_serving(self):
         with Server(args=["--workers", "1", "--max-message-mb", "1"]) as server:
@@ -341,6 +344,7 @@ class MessageLimit(unittest.TestCase):
             self.assertTrue(server.alive())
 
 
+@needs_own_server
 class HealthWatch(unittest.TestCase):
     def test_watch_reports_shutdown(self):
         with Server(args=["--workers", "1"]) as server:

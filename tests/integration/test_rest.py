@@ -7,7 +7,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, b64, cloud_scan, corners_json  # noqa: E402
+from harness import Server, b64, cloud_scan, corners_json, needs_own_server, shared_server  # noqa: E402
 
 OPENCV_DATA = "/usr/share/doc/opencv-doc/examples/data"
 # The box is measured to within this share of its struck capacity (independent scene, 3 mm
@@ -24,7 +24,7 @@ def read_bytes(path):
 class RestFlow(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.server = Server(args=["--workers", "2"]).start()
+        cls.server = shared_server()
         cls.empty = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
 
     @classmethod
@@ -225,6 +225,7 @@ class RestFlow(unittest.TestCase):
         self.assertAlmostEqual(copy["baselineM"], cal["baselineM"], places=9)
         self.assertEqual(copy["source"], "CALIBRATION_SOURCE_PARAMETERS")
 
+    @needs_own_server
     def test_cors(self):
         with Server(args=["--workers", "1", "--cors-origin", "https://dash.example"]) as server:
             status, _ = server.rest("OPTIONS", "/v1/containers", headers={"Origin": "https://dash.example"})
@@ -232,6 +233,7 @@ class RestFlow(unittest.TestCase):
             status, _ = server.rest("OPTIONS", "/v1/containers", headers={"Origin": "https://evil.example"})
             self.assertEqual(status, 403)
 
+    @needs_own_server
     def test_oversize_body_is_413_and_server_keeps_serving(self):
         with Server(args=["--workers", "1", "--max-message-mb", "1"]) as server:
             big = {"containerId": "big", "scan": cloud_scan(os.urandom(3 << 20))}

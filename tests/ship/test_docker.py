@@ -1,0 +1,426 @@
+"""Static checks of docker/ (there is no Docker engine on our machines): the Dockerfile and
+compose.yaml must agree with the repository, the server and each other.
+
+- every path COPY takes from the context exists and .dockerignore lets it in; what COPY takes
+  from the build stage is made there (or installed by scripts/install-deps.sh);
+- the build stage runs the scripts CI runs (install-deps.sh, build.sh);
+- docker/runtime-packages.txt is exactly the Debian packages of the libraries the server and
+  the CLI link (DT_NEEDED, through ldd and dpkg -S);
+- ENV, EXPOSE, VOLUME, USER, HEALTHCHECK and ENTRYPOINT match the server's flags; the server
+  starts with the image's and compose's environment, and the health check command passes
+  against it;
+- compose's targets, ports, volume, environment and test command match the image.
+
+Environment: SOILVOL_SERVER_BIN, SOILVOL_CLI_BIN (built binaries). Exit 77 (skip) when
+python3-yaml is missing."""
+import fnmatch
+import glob
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import unittest
+
+try:
+    import yaml
+except ImportError:
+    print("skipped: python3-yaml is not installed", file=sys.stderr)
+    sys.exit(77)
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+DOCKERFILE = os.path.join(ROOT, "docker", "Dockerfile")
+COMPOSE = os.path.join(ROOT, "docker", "compose.yaml")
+SERVER_BIN = os.environ.get("SOILVOL_SERVER_BIN", os.path.join(ROOT, "build/server/soilvol-server"))
+CLI_BIN = os.environ.get("SOILVOL_CLI_BIN", os.path.join(ROOT, "build/client/soilvol"))
+
+# Python modules the integration suite imports beyond the standard library, and the Debian
+# package each comes from in the integration image. The generated stubs import google.protobuf.
+PYTHON_PACKAGES = {"grpc": "python3-grpcio", "numpy": "python3-numpy",
+                   "google": "python3-protobuf"}
+
+
+def parse_dockerfile(path):
+    """[(stage name, [(instruction, arguments)])] with continuation lines joined; what comes
+    before the first FROM (global ARGs) is the stage "(global)"."""
+    with open(path) as f:
+        text = f.read()
+    logical, current = [], ""
+    for line in text.splitlines():
+        if not current and (not line.strip() or line.lstrip().startswith("#")):
+            continue
+        if line.lstrip().startswith("#"):  # a comment inside a continued instruction
+            continue
+        if line.endswith("\\"):
+            current += line[:-1] + " "
+            continue
+        logical.append(current + line)
+        current = ""
+    stages = []
+    for line in logical:
+        instruction, _, args = line.strip().partition(" ")
+        instruction = instruction.upper()
+        if instruction == "FROM":
+            m = re.match(r"(\S+)(?:\s+AS\s+(\S+))?", args.strip(), re.IGNORECASE)
+            stages.append((m.group(2) or m.group(1), [("FROM", m.group(1))]))
+        elif stages:
+            stages[-1][1].append((instruction, args.strip()))
+        else:
+            stages.append(("(global)", [(instruction, args.strip())]))
+    return stages
+
+
+def copy_sources(args):
+    """(--from stage or None, [sources], destination) of a COPY's arguments."""
+    words = shlex.split(args)
+    flags = [w for w in words if w.startswith("--")]
+    paths = [w for w in words if not w.startswith("--")]
+    source_stage = next((f.split("=", 1)[1] for f in flags if f.startswith("--from=")), None)
+    return source_stage, paths[:-1], paths[-1]
+
+
+def env_of(instructions):
+    """The ENV key=value pairs of a stage's instructions, in order."""
+    env = {}
+    for instruction, args in instructions:
+        if instruction == "ENV":
+            for word in shlex.split(args):
+                key, _, value = word.partition("=")
+                env[key] = value
+    return env
+
+
+def dockerignore_admits(path, patterns):
+    """True when .dockerignore's patterns (last match wins, ! re-includes) let `path` in;
+    a pattern that matches a parent folder matches what is inside it."""
+    admitted = True
+    parts = path.split("/")
+    prefixes = ["/".join(parts[:i]) for i in range(1, len(parts) + 1)]
+    for pattern in patterns:
+        negate = pattern.startswith("!")
+        glob = pattern[1:] if negate else pattern
+        glob = glob.rstrip("/")
+        regex = fnmatch.translate(glob).replace(".*", "[^/]*")
+        if glob.startswith("**/"):
+            regex = "(?:.*/)?" + fnmatch.translate(glob[3:]).replace(".*", "[^/]*")
+        if any(re.fullmatch(regex, prefix, re.DOTALL) for prefix in prefixes):
+            admitted = negate
+    return admitted
+
+
+def dockerignore_patterns():
+    with open(os.path.join(ROOT, ".dockerignore")) as f:
+        return [line.strip() for line in f if line.strip() and not line.startswith("#")]
+
+
+def install_deps_packages():
+    with open(os.path.join(ROOT, "scripts", "install-deps.sh")) as f:
+        text = f.read()
+    block = re.search(r"packages=\((.*?)\)", text, re.DOTALL).group(1)
+    return set(block.split())
+
+
+def help_env(binary):
+    """{variable: default text} of the SOILVOL_* variables a binary's --help lists."""
+    text = subprocess.run([binary, "--help"], capture_output=True, text=True, timeout=30,
+                          check=True).stdout
+    found = {}
+    for m in re.finditer(r"--[\w-]+ \S+?(?:=(\S+))? \(Env:(SOILVOL_\w+)\)", text):
+        found[m.group(2)] = m.group(1)
+    return found
+
+
+def port_of(address):
+    return int(address.rsplit(":", 1)[1])
+
+
+def package_of(path):
+    """The Debian package that owns a file (resolving /usr-merge symlinks), or None."""
+    real = os.path.realpath(path)
+    for candidate in (real, real[len("/usr"):] if real.startswith("/usr/") else None):
+        if not candidate:
+            continue
+        done = subprocess.run(["dpkg", "-S", candidate], capture_output=True, text=True)
+        if done.returncode == 0:
+            return done.stdout.split(":", 1)[0].split(",")[0].strip()
+    return None
+
+
+def needed_packages(binaries):
+    """Packages of the libraries the binaries link directly (DT_NEEDED)."""
+    packages = set()
+    for binary in binaries:
+        needed = re.findall(r"\(NEEDED\)\s+Shared library: \[(.+?)\]",
+                            subprocess.run(["readelf", "-d", binary], capture_output=True,
+                                           text=True, check=True).stdout)
+        resolved = dict(re.findall(r"^\s*(\S+) => (/\S+)", subprocess.run(
+            ["ldd", binary], capture_output=True, text=True, check=True).stdout, re.MULTILINE))
+        for library in needed:
+            if library not in resolved:
+                raise AssertionError(f"{binary}: ldd does not resolve {library}")
+            package = package_of(resolved[library])
+            if package is None:
+                raise AssertionError(f"{resolved[library]} belongs to no Debian package")
+            packages.add(package)
+    return packages
+
+
+class RunningServer:
+    """soilvol-server with a given environment on ephemeral loopback ports."""
+
+    def __init__(self, env):
+        self.data_dir = tempfile.mkdtemp(prefix="soilvol-ship-")
+        env = dict(os.environ, **env)
+        env.update(SOILVOL_GRPC_ADDRESS="127.0.0.1:0", SOILVOL_HTTP_ADDRESS="127.0.0.1:0",
+                   SOILVOL_DATA_DIR=self.data_dir)
+        self.proc = subprocess.Popen([SERVER_BIN], env=env, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.PIPE, text=True)
+        self.log, self.grpc_port = [], None
+        self.ready = threading.Event()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.proc.stderr:
+            self.log.append(line)
+            m = re.search(r'listening.*\bgrpc_port"?[=:](\d+)', line)  # text or JSON log
+            if m:
+                self.grpc_port = int(m.group(1))
+                self.ready.set()
+        self.ready.set()
+
+    def stop(self):
+        self.proc.send_signal(signal.SIGTERM)
+        try:
+            return self.proc.wait(30)
+        finally:
+            shutil.rmtree(self.data_dir, ignore_errors=True)
+
+
+class Dockerfile(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.stages = dict(parse_dockerfile(DOCKERFILE))
+        cls.server_env = help_env(SERVER_BIN)
+        cls.runtime = cls.stages["runtime"]
+        cls.runtime_env = env_of(cls.runtime)
+
+    def instructions(self, stage, name):
+        return [args for instruction, args in self.stages[stage] if instruction == name]
+
+    def test_stages(self):
+        self.assertEqual(list(self.stages), ["(global)", "build", "runtime", "integration"])
+        self.assertRegex(self.instructions("build", "FROM")[0], r"^debian:\$\{DEBIAN_RELEASE\}$")
+        self.assertEqual(self.instructions("runtime", "FROM"), ["debian:${DEBIAN_RELEASE}-slim"])
+        self.assertEqual(self.instructions("integration", "FROM"), ["runtime"])
+        self.assertEqual(self.instructions("(global)", "ARG"), ["DEBIAN_RELEASE=bookworm"])
+
+    def test_build_stage_runs_the_ci_scripts(self):
+        runs = " ".join(self.instructions("build", "RUN"))
+        self.assertIn("scripts/install-deps.sh", runs)
+        self.assertIn("scripts/build.sh", runs)
+
+    def test_context_copies_exist_and_pass_dockerignore(self):
+        patterns = dockerignore_patterns()
+        copies = 0
+        for stage, instructions in self.stages.items():
+            for instruction, args in instructions:
+                if instruction not in ("COPY", "ADD"):
+                    continue
+                self.assertEqual(instruction, "COPY", f"{stage}: use COPY, not ADD")
+                source_stage, sources, _ = copy_sources(args)
+                if source_stage is not None:
+                    continue
+                for source in sources:
+                    copies += 1
+                    path = os.path.join(ROOT, source)
+                    self.assertTrue(os.path.exists(path), f"{stage}: COPY {source}: no such path")
+                    rel = os.path.relpath(path, ROOT)
+                    self.assertTrue(dockerignore_admits(rel, patterns),
+                                    f"{stage}: COPY {source} is excluded by .dockerignore")
+                    if os.path.isdir(path):
+                        for dirpath, _, files in os.walk(path):
+                            for name in files:
+                                if name.endswith(".pyc"):
+                                    continue
+                                inner = os.path.relpath(os.path.join(dirpath, name), ROOT)
+                                self.assertTrue(dockerignore_admits(inner, patterns),
+                                                f".dockerignore drops {inner}")
+        self.assertGreater(copies, 5)
+
+    def test_dockerignore_keeps_out_build_trees_and_data(self):
+        patterns = dockerignore_patterns()
+        for path in ("build/server/soilvol-server", "data/containers/a.entry", ".git/HEAD",
+                     "README.md", "bench/main.cpp", "tests/integration/__pycache__/x.pyc"):
+            self.assertFalse(dockerignore_admits(path, patterns), path)
+
+    def test_copies_from_the_build_stage_are_made_there(self):
+        build_runs = " ".join(self.instructions("build", "RUN"))
+        installed = install_deps_packages()
+        for stage in ("runtime", "integration"):
+            for args in self.instructions(stage, "COPY"):
+                source_stage, sources, _ = copy_sources(args)
+                if source_stage is None:
+                    continue
+                self.assertEqual(source_stage, "build")
+                for source in sources:
+                    if source.startswith("/out/"):
+                        made = re.search(re.escape(source.rstrip("/")) + r"\b", build_runs)
+                        self.assertTrue(made, f"{stage}: {source} is not made in the build stage")
+                        continue
+                    matches = sorted(glob.glob(source))
+                    self.assertTrue(matches, f"{stage}: {source} matches nothing here")
+                    package = package_of(matches[0])
+                    self.assertIn(package, installed,
+                                  f"{source} comes from {package}, not in install-deps.sh")
+
+    def test_built_binaries_are_the_cmake_targets(self):
+        build_runs = " ".join(self.instructions("build", "RUN"))
+        self.assertIn("/build/server/soilvol-server", build_runs)
+        self.assertIn("/build/client/soilvol ", build_runs)
+        self.assertTrue(SERVER_BIN.endswith("server/soilvol-server"), SERVER_BIN)
+        self.assertTrue(CLI_BIN.endswith("client/soilvol"), CLI_BIN)
+
+    @unittest.skipUnless(shutil.which("dpkg") and shutil.which("readelf"), "needs dpkg, readelf")
+    def test_runtime_packages_are_exactly_what_the_binaries_link(self):
+        with open(os.path.join(ROOT, "docker", "runtime-packages.txt")) as f:
+            listed = {line.strip() for line in f if line.strip()}
+        needed = needed_packages([SERVER_BIN, CLI_BIN])
+        self.assertEqual(sorted(needed - listed), [], "linked but not in runtime-packages.txt")
+        self.assertEqual(sorted(listed - needed), [], "in runtime-packages.txt but not linked")
+
+    def test_environment_and_ports_match_the_server(self):
+        for key in self.runtime_env:
+            self.assertIn(key, set(self.server_env) | {"SOILVOL_SERVER"},
+                          f"ENV {key} is not a server variable")
+        grpc_port = port_of(self.runtime_env["SOILVOL_GRPC_ADDRESS"])
+        http_port = port_of(self.runtime_env["SOILVOL_HTTP_ADDRESS"])
+        self.assertEqual(grpc_port, port_of(self.server_env["SOILVOL_GRPC_ADDRESS"]))
+        self.assertEqual(http_port, port_of(self.server_env["SOILVOL_HTTP_ADDRESS"]))
+        exposed = {int(p) for args in self.instructions("runtime", "EXPOSE") for p in args.split()}
+        self.assertEqual(exposed, {grpc_port, http_port})
+        self.assertEqual(port_of(self.runtime_env["SOILVOL_SERVER"]), grpc_port,
+                         "the health check's target is not the gRPC port")
+        self.assertEqual(self.instructions("runtime", "VOLUME"),
+                         [f'["{self.runtime_env["SOILVOL_DATA_DIR"]}"]'])
+
+    def test_runs_as_the_user_it_creates(self):
+        runs = " ".join(self.instructions("runtime", "RUN"))
+        uid = re.search(r"useradd [^&]*--uid (\d+)", runs).group(1)
+        gid = re.search(r"groupadd [^&]*--gid (\d+)", runs).group(1)
+        self.assertNotEqual(uid, "0")
+        for stage in ("runtime", "integration"):
+            self.assertEqual(self.instructions(stage, "USER")[-1], f"{uid}:{gid}",
+                             f"{stage} must end as the non-root user")
+        self.assertRegex(runs, r"chown soilvol:soilvol " + re.escape(
+            self.runtime_env["SOILVOL_DATA_DIR"]))
+
+    def test_entrypoint_and_health_check(self):
+        self.assertEqual(self.instructions("runtime", "ENTRYPOINT"), ['["soilvol-server"]'])
+        check = self.instructions("runtime", "HEALTHCHECK")
+        self.assertEqual(len(check), 1)
+        self.assertRegex(check[0], r'CMD \["soilvol", .*"health"\]$')
+        self.assertEqual(self.instructions("integration", "HEALTHCHECK"), ["NONE"])
+
+    def test_server_starts_with_the_image_environment_and_passes_its_health_check(self):
+        with open(COMPOSE) as f:
+            compose_env = yaml.safe_load(f)["services"]["server"].get("environment", {})
+        env = dict(self.runtime_env, **{k: str(v) for k, v in compose_env.items()})
+        server = RunningServer(env)
+        try:
+            self.assertTrue(server.ready.wait(60), "".join(server.log))
+            self.assertIsNotNone(server.grpc_port, "".join(server.log))
+            command = re.search(r"CMD (\[.*\])", self.instructions("runtime", "HEALTHCHECK")[0])
+            argv = yaml.safe_load(command.group(1))
+            self.assertEqual(argv[0], "soilvol")
+            check_env = dict(os.environ, SOILVOL_SERVER=f"127.0.0.1:{server.grpc_port}")
+            done = subprocess.run([CLI_BIN] + argv[1:], env=check_env, capture_output=True,
+                                  text=True, timeout=30)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            self.assertIn("SERVING", done.stdout)
+        finally:
+            code = server.stop()
+        self.assertEqual(code, 0, "".join(server.log))
+
+    def test_integration_image_has_what_the_suite_imports(self):
+        suite = os.path.join(ROOT, "tests", "integration")
+        local = {f[:-3] for f in os.listdir(suite) if f.endswith(".py")} | {"soilvol"}
+        imported = set()
+        for name in os.listdir(suite):
+            if name.endswith(".py"):
+                with open(os.path.join(suite, name)) as f:
+                    imported |= set(re.findall(r"^\s*(?:import|from)\s+(\w+)", f.read(), re.M))
+        third_party = imported - set(sys.stdlib_module_names) - local
+        self.assertTrue(third_party <= set(PYTHON_PACKAGES),
+                        f"imports without a known Debian package: {third_party - set(PYTHON_PACKAGES)}")
+        runs = " ".join(self.instructions("integration", "RUN"))
+        for package in set(PYTHON_PACKAGES.values()):
+            self.assertIn(package, runs.split())
+        env = env_of(self.stages["integration"])
+        copied = {dest.rstrip("/"): sources for _, sources, dest in
+                  (copy_sources(a) for a in self.instructions("integration", "COPY"))}
+        self.assertIn(env["SOILVOL_PROTO_PYTHON"], copied)
+        self.assertEqual(env["SOILVOL_CLI_BIN"], "/usr/local/bin/soilvol")
+        entry = yaml.safe_load(self.instructions("integration", "ENTRYPOINT")[0])
+        self.assertEqual(entry[0], "python3")
+        script = entry[1]
+        suite_dest = next(d for d, s in copied.items() if s == ["tests/integration/"])
+        self.assertEqual(script, f"{suite_dest}/run_suite.py")
+
+
+class Compose(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        with open(COMPOSE) as f:
+            cls.compose = yaml.safe_load(f)
+        cls.stages = dict(parse_dockerfile(DOCKERFILE))
+        cls.runtime_env = env_of(cls.stages["runtime"])
+        cls.server_env = help_env(SERVER_BIN)
+
+    def test_builds_resolve_to_the_dockerfile_stages(self):
+        for name, service in self.compose["services"].items():
+            build = service["build"]
+            context = os.path.normpath(os.path.join(os.path.dirname(COMPOSE), build["context"]))
+            self.assertEqual(context, ROOT, name)
+            self.assertEqual(os.path.join(context, build["dockerfile"]), DOCKERFILE, name)
+            self.assertIn(build["target"], self.stages, name)
+
+    def test_server_ports_volume_and_environment(self):
+        server = self.compose["services"]["server"]
+        self.assertEqual(server["build"]["target"], "runtime")
+        published = {int(p.rsplit(":", 1)[1]) for p in server["ports"]}
+        exposed = {int(p) for _, args in self.stages["runtime"] if _ == "EXPOSE"
+                   for p in args.split()}
+        self.assertEqual(published, exposed)
+        mounts = [v.split(":")[1] for v in server["volumes"]]
+        self.assertEqual(mounts, [self.runtime_env["SOILVOL_DATA_DIR"]])
+        self.assertIn(server["volumes"][0].split(":")[0], self.compose["volumes"])
+        for key in server.get("environment", {}):
+            self.assertIn(key, self.server_env)
+        grace = float(server.get("environment", {}).get("SOILVOL_SHUTDOWN_GRACE_S", 10))
+        self.assertGreater(float(server["stop_grace_period"].rstrip("s")), grace)
+
+    def test_integration_targets_the_server(self):
+        test = self.compose["services"]["integration"]
+        self.assertEqual(test["build"]["target"], "integration")
+        self.assertEqual(test["depends_on"]["server"]["condition"], "service_healthy")
+        args = test["command"]
+        grpc_target = args[args.index("--grpc") + 1]
+        http_url = args[args.index("--http") + 1]
+        self.assertEqual(grpc_target,
+                         f"server:{port_of(self.runtime_env['SOILVOL_GRPC_ADDRESS'])}")
+        self.assertEqual(http_url,
+                         f"http://server:{port_of(self.runtime_env['SOILVOL_HTTP_ADDRESS'])}")
+        runner = subprocess.run([sys.executable, os.path.join(ROOT, "tests", "integration",
+                                                              "run_suite.py"), "--help"],
+                                capture_output=True, text=True, timeout=30)
+        self.assertEqual(runner.returncode, 0, runner.stderr)
+        for flag in ("--grpc", "--http"):
+            self.assertIn(flag, runner.stdout)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
