@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "CLI/CLI.hpp"
+#include "server/cpu_budget.hpp"
 #include "server/logging.hpp"
 #include "server/options.hpp"
 #include "server/server.hpp"
@@ -28,7 +29,9 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
     app.add_option("--data-dir", o.data_dir, "Directory of container models and calibrations")
         ->envname("SOILVOL_DATA_DIR")
         ->capture_default_str();
-    app.add_option("--workers", o.workers, "Engine worker threads (0 = one per core)")
+    app.add_option("--workers", o.workers,
+                   "Calls run at once (0 = one per CPU of the cgroup limit); each gets CPUs / "
+                   "workers threads")
         ->envname("SOILVOL_WORKERS")
         ->capture_default_str();
     app.add_option(
@@ -93,14 +96,17 @@ int main(int argc, char** argv) {
         return absl::IsInvalidArgument(server.status()) ? 2 : 1;
     }
     const soilvol::server::ServerOptions resolved = soilvol::server::ResolveOptions(options);
-    LogEvent(LogLevel::kInfo, "listening",
-             {{"grpc_port", (*server)->grpc_port()},
-              {"http_port", (*server)->http_port()},
-              {"grpc_address", resolved.grpc_address},
-              {"http_address", resolved.http_address},
-              {"data_dir", resolved.data_dir},
-              {"workers", resolved.workers},
-              {"max_queue", resolved.max_queue}});
+    LogEvent(
+        LogLevel::kInfo, "listening",
+        {{"grpc_port", (*server)->grpc_port()},
+         {"http_port", (*server)->http_port()},
+         {"grpc_address", resolved.grpc_address},
+         {"http_address", resolved.http_address},
+         {"data_dir", resolved.data_dir},
+         {"cpus", resolved.cpus},
+         {"workers", resolved.workers},
+         {"threads_per_call", soilvol::server::ThreadsPerCall(resolved.cpus, resolved.workers)},
+         {"max_queue", resolved.max_queue}});
     std::thread waiter([&server, &signals] {
         int signal = 0;
         sigwait(&signals, &signal);

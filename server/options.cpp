@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <thread>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "server/cpu_budget.hpp"
 
 namespace soilvol::server {
 namespace {
@@ -75,9 +75,8 @@ absl::Status ValidateOptions(const ServerOptions& o) {
 }
 
 ServerOptions ResolveOptions(ServerOptions options) {
-    if (options.workers == 0) {
-        options.workers = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-    }
+    if (options.cpus == 0) options.cpus = AvailableCpus();
+    if (options.workers == 0) options.workers = options.cpus;
     if (options.max_queue == 0) options.max_queue = 4 * options.workers;
     if (options.http_threads == 0) {
         options.http_threads = std::min(1024, 2 * (options.workers + options.max_queue) + 4);

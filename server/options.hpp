@@ -13,8 +13,8 @@ struct ServerOptions {
     std::string grpc_address = "0.0.0.0:50051";  ///< host:port; port 0 picks a free one
     std::string http_address = "0.0.0.0:8080";   ///< REST gateway, health and metrics
     std::string data_dir = "./data";             ///< model store
-    int workers = 0;                             ///< engine threads; 0 = one per core
-    int max_queue = 0;                           ///< requests waiting for a worker; 0 = 4 x workers
+    int workers = 0;    ///< engine threads; 0 = one per CPU available (affinity, cgroup limit)
+    int max_queue = 0;  ///< requests waiting for a worker; 0 = 4 x workers
     int max_message_mb = 64;  ///< largest gRPC message; REST bodies may be 4/3 larger (base64)
     std::string log_level = "info";         ///< trace, debug, info, warn, error, critical, off
     std::string log_format = "text";        ///< text or json
@@ -23,6 +23,9 @@ struct ServerOptions {
     /// REST connections served at once; 0 = 2 x (workers + max_queue) + 4, so that a full
     /// pool is what refuses REST calls (429), not a connection backlog.
     int http_threads = 0;
+    /// Not a flag: the CPUs available (AvailableCpus), filled by ResolveOptions; each call's
+    /// engine gets cpus / workers threads.
+    int cpus = 0;
 };
 
 /// host:port with a numeric port in [0, 65535]; InvalidArgument naming `flag` otherwise.
@@ -31,7 +34,7 @@ absl::Status ValidateAddress(const std::string& address, const std::string& flag
 /// InvalidArgument naming the flag and the problem for the first bad option.
 absl::Status ValidateOptions(const ServerOptions& options);
 
-/// Options with the automatic values (workers, max_queue) made concrete.
+/// Options with the automatic values (workers, max_queue, http_threads, cpus) made concrete.
 ServerOptions ResolveOptions(ServerOptions options);
 
 }  // namespace soilvol::server

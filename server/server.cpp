@@ -4,8 +4,10 @@
 #include <mutex>
 
 #include "absl/strings/str_cat.h"
+#include "core/pipeline/parallelism.hpp"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/grpcpp.h"
+#include "server/cpu_budget.hpp"
 #include "server/dispatcher.hpp"
 #include "server/grpc_service.hpp"
 #include "server/health_service.hpp"
@@ -54,10 +56,16 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     if (!store.ok()) return store.status();
     p.store = *std::move(store);
     Metrics* metrics = &p.metrics;
+    // Busy, the workers run about one engine thread per CPU: each call gets cpus / workers
+    // for its OpenMP loops (per worker thread) and OpenCV's loops (process-wide).
+    const int call_threads = ThreadsPerCall(o.cpus, o.workers);
+    pipeline::SetOpenCvThreads(call_threads);
     p.pool = std::make_unique<WorkerPool>(
-        o.workers, o.max_queue, [metrics](std::size_t running, std::size_t queued) {
+        o.workers, o.max_queue,
+        [metrics](std::size_t running, std::size_t queued) {
             metrics->SetLoad(static_cast<double>(running), static_cast<double>(queued));
-        });
+        },
+        [call_threads] { pipeline::SetCallThreads(call_threads); });
     p.metrics.SetWorkers(o.workers, o.max_queue);
     p.dispatcher = std::make_unique<Dispatcher>(*p.pool, p.metrics);
     p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store);

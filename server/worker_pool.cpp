@@ -5,10 +5,16 @@
 
 namespace soilvol::server {
 
-WorkerPool::WorkerPool(int workers, int max_queue, LoadListener listener)
+WorkerPool::WorkerPool(int workers, int max_queue, LoadListener listener,
+                       std::function<void()> thread_start)
     : max_queue_(static_cast<std::size_t>(max_queue)), listener_(std::move(listener)) {
     threads_.reserve(static_cast<std::size_t>(workers));
-    for (int i = 0; i < workers; ++i) threads_.emplace_back([this] { Loop(); });
+    for (int i = 0; i < workers; ++i) {
+        threads_.emplace_back([this, thread_start] {
+            if (thread_start) thread_start();
+            Loop();
+        });
+    }
 }
 
 WorkerPool::~WorkerPool() { Shutdown(std::chrono::milliseconds(0)); }

@@ -25,7 +25,10 @@ class WorkerPool {
     /// Called with (running, queued) after every change, under the pool's lock: keep it cheap.
     using LoadListener = std::function<void(std::size_t running, std::size_t queued)>;
 
-    WorkerPool(int workers, int max_queue, LoadListener listener = {});
+    /// `thread_start` runs first on each worker thread (per-thread settings such as the
+    /// engine's thread count).
+    WorkerPool(int workers, int max_queue, LoadListener listener = {},
+               std::function<void()> thread_start = {});
     ~WorkerPool();
     WorkerPool(const WorkerPool&) = delete;
     WorkerPool& operator=(const WorkerPool&) = delete;

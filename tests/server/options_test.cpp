@@ -54,7 +54,9 @@ TEST(ServerOptions, ResolveFillsTheAutomaticValues) {
     EXPECT_EQ(resolved.workers, 3);
     EXPECT_EQ(resolved.max_queue, 12);
     EXPECT_EQ(resolved.http_threads, 2 * (3 + 12) + 4);
-    EXPECT_GE(ResolveOptions(ServerOptions{}).workers, 1);
+    EXPECT_GE(resolved.cpus, 1);
+    const ServerOptions automatic = ResolveOptions(ServerOptions{});
+    EXPECT_EQ(automatic.workers, automatic.cpus);  // one worker per available CPU
 }
 
 }  // namespace

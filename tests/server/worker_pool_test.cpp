@@ -36,6 +36,29 @@ TEST(WorkerPool, AcceptsWorkersPlusQueueThenRefusesAtOnce) {
     EXPECT_EQ(rejected, 0);
 }
 
+TEST(WorkerPool, ThreadStartRunsOnEveryWorkerBeforeItsTasks) {
+    thread_local int prepared = 0;
+    std::atomic<int> starts{0}, unprepared{0};
+    WorkerPool pool(3, 30, {}, [&starts] {
+        prepared = 1;
+        ++starts;
+    });
+    std::atomic<int> ran{0};
+    for (int i = 0; i < 30; ++i) {
+        WorkerPool::Task task;
+        task.run = [&ran, &unprepared] {
+            if (prepared != 1) ++unprepared;
+            ++ran;
+        };
+        task.reject = [] {};
+        ASSERT_TRUE(pool.TrySubmit(task));
+    }
+    EXPECT_TRUE(pool.Shutdown(std::chrono::seconds(10)));
+    EXPECT_EQ(ran, 30);
+    EXPECT_EQ(starts, 3);
+    EXPECT_EQ(unprepared, 0);
+}
+
 TEST(WorkerPool, ShutdownAfterGraceRejectsWhatWaits) {
     std::promise<void> open;
     std::shared_future<void> gate = open.get_future().share();
