@@ -169,6 +169,20 @@ def needed_packages(binaries):
     return packages
 
 
+def replay_copy(source, dest, into):
+    """Docker's COPY of one context path to `dest` (relative to WORKDIR) under folder `into`:
+    a folder's contents go into dest; a file goes to dest, or into it when dest ends in /."""
+    path = os.path.join(ROOT, source)
+    target = os.path.normpath(os.path.join(into, dest))
+    if os.path.isdir(path):
+        shutil.copytree(path, target, dirs_exist_ok=True)
+        return
+    if dest.endswith("/") or dest in (".", "./"):
+        target = os.path.join(target, os.path.basename(source))
+    os.makedirs(os.path.dirname(target), exist_ok=True)
+    shutil.copy(path, target)
+
+
 class RunningServer:
     """soilvol-server with a given environment on ephemeral loopback ports."""
 
@@ -276,6 +290,28 @@ class Dockerfile(unittest.TestCase):
                     package = package_of(matches[0])
                     self.assertIn(package, installed,
                                   f"{source} comes from {package}, not in install-deps.sh")
+
+    @unittest.skipUnless(shutil.which("cmake"), "needs cmake")
+    def test_build_stage_sources_configure(self):
+        """The build stage's COPYs, replayed into an empty folder, hold a project that CMake
+        configures with the flags of its build.sh call (a file it forgot fails here)."""
+        with tempfile.TemporaryDirectory(prefix="soilvol-docker-src-") as src:
+            for args in self.instructions("build", "COPY"):
+                _, sources, dest = copy_sources(args)
+                for source in sources:
+                    replay_copy(source, dest, src)
+            build_call = next(r for r in self.instructions("build", "RUN") if "build.sh" in r)
+            flags = re.findall(r"-D\w+=\w+", build_call)
+            self.assertIn("-DSOILVOL_BUILD_TESTS=OFF", flags)
+            build = os.path.join(src, "_build")
+            done = subprocess.run(["cmake", "-S", src, "-B", build, *flags],
+                                  capture_output=True, text=True, timeout=300)
+            self.assertEqual(done.returncode, 0, done.stdout[-3000:] + done.stderr[-3000:])
+            # The targets whose outputs the stage installs into /out.
+            targets = subprocess.run(["cmake", "--build", build, "--target", "help"],
+                                     capture_output=True, text=True, timeout=60).stdout
+            for target in ("soilvol-server", "soilvol", "soilvol_proto_python"):
+                self.assertRegex(targets, rf"(?m)^(\.\.\. )?{target}(:| |$)", target)
 
     def test_built_binaries_are_the_cmake_targets(self):
         build_runs = " ".join(self.instructions("build", "RUN"))
