@@ -83,26 +83,27 @@ CallContext GrpcCallContext(grpc::CallbackServerContext* context, const char* me
 SoilVolumeService::SoilVolumeService(SoilVolumeHandlers& handlers, Dispatcher& dispatcher)
     : handlers_(handlers), dispatcher_(dispatcher) {}
 
-template <typename Request, typename Response>
-grpc::ServerUnaryReactor* SoilVolumeService::Unary(
-    grpc::CallbackServerContext* context, const char* method, const Request* request,
-    Response* response,
-    absl::Status (SoilVolumeHandlers::*handler)(const Request&, Response*, CallRecord&)) {
+template <typename Request, typename Response,
+          SoilVolumeService::Handler<Request, Response> handler>
+grpc::ServerUnaryReactor* SoilVolumeService::Unary(grpc::CallbackServerContext* context,
+                                                   const char* method, const Request* request,
+                                                   Response* response) {
     grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
     dispatcher_.Submit(
         GrpcCallContext(context, method),
-        [this, request, response, handler](CallRecord& record) {
+        [this, request, response](CallRecord& record) {
             return (handlers_.*handler)(*request, response, record);
         },
         [reactor](const absl::Status& status) { reactor->Finish(ToGrpcStatus(status)); });
     return reactor;
 }
 
-#define SOILVOL_UNARY_RPC(Name, Request, Response)                                          \
-    grpc::ServerUnaryReactor* SoilVolumeService::Name(grpc::CallbackServerContext* context, \
-                                                      const v1::Request* request,           \
-                                                      v1::Response* response) {             \
-        return Unary(context, #Name, request, response, &SoilVolumeHandlers::Name);         \
+#define SOILVOL_UNARY_RPC(Name, Request, Response)                                             \
+    grpc::ServerUnaryReactor* SoilVolumeService::Name(grpc::CallbackServerContext* context,    \
+                                                      const v1::Request* request,              \
+                                                      v1::Response* response) {                \
+        return Unary<v1::Request, v1::Response, &SoilVolumeHandlers::Name>(context, #Name,     \
+                                                                           request, response); \
     }
 
 SOILVOL_UNARY_RPC(Calibrate, CalibrateRequest, Calibration)

@@ -25,6 +25,9 @@ CLI_BIN = os.environ.get("SOILVOL_CLI_BIN", "build/client/soilvol")
 EXTERNAL_GRPC = os.environ.get("SOILVOL_EXTERNAL_GRPC")
 EXTERNAL_HTTP = os.environ.get("SOILVOL_EXTERNAL_HTTP")
 EXTERNAL = bool(EXTERNAL_GRPC or EXTERNAL_HTTP)
+# Time limits that depend on how fast the engine computes are multiplied by this: the
+# sanitizer build (scripts/sanitize.sh) runs the same tests several times slower.
+TIME_SCALE = float(os.environ.get("SOILVOL_TEST_TIME_SCALE", "1"))
 
 
 class RestClient:

@@ -9,8 +9,8 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import (Server, load_grpc, needs_own_server, server_metric, shared_server,  # noqa: E402
-                     wait_until)  # noqa: E402
+from harness import (TIME_SCALE, Server, load_grpc, needs_own_server, server_metric,  # noqa: E402
+                     shared_server, wait_until)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 
@@ -290,7 +290,7 @@ class GrpcFlow(unittest.TestCase):
                          CODE.DEADLINE_EXCEEDED)
         self.assertTrue(wait_until(lambda: server_metric(
             self.server, "soilvol_requests_total", code="DEADLINE_EXCEEDED", **method)
-            > late_before, timeout_s=10), "the server never recorded DEADLINE_EXCEEDED")
+            > late_before, timeout_s=10 * TIME_SCALE), "the server never recorded DEADLINE_EXCEEDED")
         self.assertEqual(server_metric(self.server, "soilvol_requests_total", code="OK", **method),
                          ok_before)
         if self.server.own_process:

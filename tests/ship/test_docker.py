@@ -325,6 +325,9 @@ class Dockerfile(unittest.TestCase):
         with open(os.path.join(ROOT, "docker", "runtime-packages.txt")) as f:
             listed = {line.strip() for line in f if line.strip()}
         needed = needed_packages([SERVER_BIN, CLI_BIN])
+        if {"libasan8", "libubsan1"} & needed:
+            self.skipTest("sanitizer build: it links the sanitizer runtimes; the image ships "
+                          "the Release binaries")
         self.assertEqual(sorted(needed - listed), [], "linked but not in runtime-packages.txt")
         self.assertEqual(sorted(listed - needed), [], "in runtime-packages.txt but not linked")
 
