@@ -108,6 +108,10 @@ int AvailableCpus() {
     return cpus;
 }
 
-int ThreadsPerCall(int cpus, int workers) { return std::max(1, cpus / std::max(1, workers)); }
+int ThreadsPerCall(int cpus, int workers) {
+    cpus = std::max(1, cpus);
+    workers = std::max(1, workers);
+    return std::min(cpus, (2 * cpus + workers - 1) / workers);
+}
 
 }  // namespace soilvol::server

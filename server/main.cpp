@@ -30,8 +30,8 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
         ->envname("SOILVOL_DATA_DIR")
         ->capture_default_str();
     app.add_option("--workers", o.workers,
-                   "Calls run at once (0 = one per CPU of the cgroup limit); each gets CPUs / "
-                   "workers threads")
+                   "Calls run at once (0 = one per CPU of the cgroup limit); each gets 2 x CPUs / "
+                   "workers threads, at most the CPUs")
         ->envname("SOILVOL_WORKERS")
         ->capture_default_str();
     app.add_option(

@@ -24,7 +24,7 @@ struct ServerOptions {
     /// pool is what refuses REST calls (429), not a connection backlog.
     int http_threads = 0;
     /// Not a flag: the CPUs available (AvailableCpus), filled by ResolveOptions; each call's
-    /// engine gets cpus / workers threads.
+    /// engine gets ThreadsPerCall(cpus, workers) threads.
     int cpus = 0;
 };
 

@@ -56,8 +56,8 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     if (!store.ok()) return store.status();
     p.store = *std::move(store);
     Metrics* metrics = &p.metrics;
-    // Busy, the workers run about one engine thread per CPU: each call gets cpus / workers
-    // for its OpenMP loops (per worker thread) and OpenCV's loops (process-wide).
+    // Busy, the workers run at most two engine threads per CPU (ThreadsPerCall), for the
+    // OpenMP loops (set per worker thread) and OpenCV's loops (process-wide).
     const int call_threads = ThreadsPerCall(o.cpus, o.workers);
     pipeline::SetOpenCvThreads(call_threads);
     p.pool = std::make_unique<WorkerPool>(

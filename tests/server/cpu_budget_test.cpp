@@ -39,11 +39,14 @@ TEST(CpuBudget, AvailableCpusIsWithinTheAffinityMask) {
 }
 
 TEST(CpuBudget, ThreadsPerCallSharesTheCpus) {
-    EXPECT_EQ(ThreadsPerCall(8, 2), 4);
-    EXPECT_EQ(ThreadsPerCall(8, 3), 2);
-    EXPECT_EQ(ThreadsPerCall(2, 2), 1);
+    EXPECT_EQ(ThreadsPerCall(8, 1), 8);  // one call at a time gets every CPU, no more
+    EXPECT_EQ(ThreadsPerCall(8, 2), 8);
+    EXPECT_EQ(ThreadsPerCall(8, 3), 6);    // 3 x 6 = 18 threads: at most 2 per CPU, rounded up
+    EXPECT_EQ(ThreadsPerCall(16, 16), 2);  // one worker per CPU: two threads each
+    EXPECT_EQ(ThreadsPerCall(2, 2), 2);
     EXPECT_EQ(ThreadsPerCall(2, 8), 1);  // more workers than CPUs: one thread each
     EXPECT_EQ(ThreadsPerCall(4, 0), 4);
+    EXPECT_EQ(ThreadsPerCall(0, 3), 1);
 }
 
 }  // namespace
