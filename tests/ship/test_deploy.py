@@ -8,15 +8,9 @@ SOILVOL_DEPLOY_DIR: the manifests (default deploy/ of this checkout). Exit 77 = 
 (no python3-yaml).
 """
 import importlib.util
-import json
 import os
-import queue
 import re
-import signal
-import subprocess
 import sys
-import tempfile
-import threading
 import unittest
 import urllib.request
 from pathlib import Path
@@ -26,6 +20,9 @@ try:
 except ImportError:
     print("skipped: python3-yaml is not installed (apt-get install python3-yaml)")
     sys.exit(77)
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from ship_common import ServerProcess, help_env, parse_dockerfile, port_of  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 DEPLOY_DIR = Path(os.environ.get("SOILVOL_DEPLOY_DIR", ROOT / "deploy"))
@@ -53,20 +50,9 @@ def only(resources, kind, name=None):
     return found[0]
 
 
-def port_of(address):
-    return int(address.rsplit(":", 1)[1])
-
-
 def cpu_cores(quantity):
     text = str(quantity)
     return int(text[:-1]) / 1000 if text.endswith("m") else float(text)
-
-
-def server_env_vars():
-    """The SOILVOL_* variables `soilvol-server --help` lists."""
-    help_text = subprocess.run([SERVER_BIN, "--help"], capture_output=True, text=True,
-                               check=True, timeout=30).stdout
-    return set(re.findall(r"\(Env:(SOILVOL_\w+)\)", help_text))
 
 
 def prestop_seconds(container):
@@ -80,31 +66,12 @@ def prestop_seconds(container):
 
 
 def dockerfile_server_stage():
-    """Instructions (keyword, argument) of the last stage whose ENTRYPOINT is soilvol-server,
-    continuation lines joined."""
-    text = re.sub(r"\\\n", " ", DOCKERFILE.read_text())
-    stages = []
-    for line in text.splitlines():
-        parts = line.strip().split(None, 1)
-        if not parts or parts[0].startswith("#"):
-            continue
-        keyword = parts[0].upper()
-        if keyword == "FROM":
-            stages.append([])
-        if stages:
-            stages[-1].append((keyword, parts[1] if len(parts) > 1 else ""))
-    servers = [stage for stage in stages
+    """Instructions (keyword, argument) of the last stage whose ENTRYPOINT is soilvol-server."""
+    servers = [stage for _, stage in parse_dockerfile(DOCKERFILE)
                if any(k == "ENTRYPOINT" and "soilvol-server" in a for k, a in stage)]
     if not servers:
         raise AssertionError(f"{DOCKERFILE}: no stage has ENTRYPOINT soilvol-server")
     return servers[-1]
-
-
-def copy_lines(stream, lines):
-    """Reads the server's stderr on a thread, so that a full pipe never blocks it; None = EOF."""
-    for line in stream:
-        lines.put(line)
-    lines.put(None)
 
 
 def health_check(port, service):
@@ -140,7 +107,7 @@ class Manifests(unittest.TestCase):
                              f"are {labels}")
 
     def test_configmap_holds_every_server_flag_and_nothing_else(self):
-        flags = server_env_vars()
+        flags = set(help_env(SERVER_BIN))
         self.assertIn("SOILVOL_WORKERS", flags, "--help output changed: (Env:...) not found")
         self.assertEqual(set(self.config) - flags, set(), "keys the server does not read")
         self.assertEqual(flags - set(self.config), set(), "server flags missing from ConfigMap")
@@ -264,45 +231,17 @@ class Manifests(unittest.TestCase):
     def test_server_accepts_the_configuration(self):
         """The ConfigMap and container env start the server; it serves the probes; SIGTERM
         stops it with exit 0."""
-        # Our environment (sanitizer options) without its SOILVOL_* flags, then the pod's.
-        env = {k: v for k, v in os.environ.items() if not k.startswith("SOILVOL_")}
-        env.update(self.config)
+        # The pod's environment (ServerProcess drops our own SOILVOL_* variables).
+        env = dict(self.config)
         env.update({e["name"]: e["value"] for e in self.container.get("env", []) if "value" in e})
-        with tempfile.TemporaryDirectory(prefix="soilvol-ship-") as data_dir:
-            env.update(SOILVOL_GRPC_ADDRESS="127.0.0.1:0", SOILVOL_HTTP_ADDRESS="127.0.0.1:0",
-                       SOILVOL_DATA_DIR=data_dir)
-            server = subprocess.Popen([SERVER_BIN], env=env, stderr=subprocess.PIPE, text=True)
-            lines = queue.Queue()
-            reader = threading.Thread(target=copy_lines, args=(server.stderr, lines), daemon=True)
-            reader.start()
-            try:
-                started = self.wait_for_listening(lines)
-                self.assertEqual(started["workers"], int(self.config["SOILVOL_WORKERS"]))
-                self.check_endpoints(started)
-            finally:
-                server.send_signal(signal.SIGTERM)
-                code = server.wait(timeout=float(self.config["SOILVOL_SHUTDOWN_GRACE_S"]) + 20)
-                reader.join(timeout=10)
-                server.stderr.close()
-            self.assertEqual(code, 0, "soilvol-server exit code after SIGTERM")
-
-    def wait_for_listening(self, lines):
-        """The `listening` log line's fields, in text or JSON format."""
-        seen = []
-        while True:
-            try:
-                line = lines.get(timeout=30)
-            except queue.Empty:
-                self.fail(f"no 'listening' line within 30 s; stderr: {''.join(seen)}")
-            if line is None:
-                self.fail(f"soilvol-server exited before listening; stderr: {''.join(seen)}")
-            seen.append(line)
-            if line.startswith("{"):
-                fields = json.loads(line)
-                if fields.get("msg") == "listening":
-                    return fields
-            elif " listening " in line:
-                return {k: int(v) for k, v in re.findall(r"(\w+)=(\d+)\b", line)}
+        server = ServerProcess(SERVER_BIN, env)
+        try:
+            started = server.wait_listening()
+            self.assertEqual(started["workers"], int(self.config["SOILVOL_WORKERS"]))
+            self.check_endpoints(started)
+        finally:
+            code = server.stop(float(self.config["SOILVOL_SHUTDOWN_GRACE_S"]) + 20)
+        self.assertEqual(code, 0, "soilvol-server exit code after SIGTERM")
 
     def check_endpoints(self, started):
         base = f"http://127.0.0.1:{started['http_port']}"

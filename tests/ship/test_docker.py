@@ -19,11 +19,9 @@ import os
 import re
 import shlex
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import unittest
 
 try:
@@ -31,6 +29,9 @@ try:
 except ImportError:
     print("skipped: python3-yaml is not installed", file=sys.stderr)
     sys.exit(77)
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from ship_common import ServerProcess, env_of, help_env, parse_dockerfile, port_of  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 DOCKERFILE = os.path.join(ROOT, "docker", "Dockerfile")
@@ -44,36 +45,6 @@ PYTHON_PACKAGES = {"grpc": "python3-grpcio", "numpy": "python3-numpy",
                    "google": "python3-protobuf"}
 
 
-def parse_dockerfile(path):
-    """[(stage name, [(instruction, arguments)])] with continuation lines joined; what comes
-    before the first FROM (global ARGs) is the stage "(global)"."""
-    with open(path) as f:
-        text = f.read()
-    logical, current = [], ""
-    for line in text.splitlines():
-        if not current and (not line.strip() or line.lstrip().startswith("#")):
-            continue
-        if line.lstrip().startswith("#"):  # a comment inside a continued instruction
-            continue
-        if line.endswith("\\"):
-            current += line[:-1] + " "
-            continue
-        logical.append(current + line)
-        current = ""
-    stages = []
-    for line in logical:
-        instruction, _, args = line.strip().partition(" ")
-        instruction = instruction.upper()
-        if instruction == "FROM":
-            m = re.match(r"(\S+)(?:\s+AS\s+(\S+))?", args.strip(), re.IGNORECASE)
-            stages.append((m.group(2) or m.group(1), [("FROM", m.group(1))]))
-        elif stages:
-            stages[-1][1].append((instruction, args.strip()))
-        else:
-            stages.append(("(global)", [(instruction, args.strip())]))
-    return stages
-
-
 def copy_sources(args):
     """(--from stage or None, [sources], destination) of a COPY's arguments."""
     words = shlex.split(args)
@@ -81,17 +52,6 @@ def copy_sources(args):
     paths = [w for w in words if not w.startswith("--")]
     source_stage = next((f.split("=", 1)[1] for f in flags if f.startswith("--from=")), None)
     return source_stage, paths[:-1], paths[-1]
-
-
-def env_of(instructions):
-    """The ENV key=value pairs of a stage's instructions, in order."""
-    env = {}
-    for instruction, args in instructions:
-        if instruction == "ENV":
-            for word in shlex.split(args):
-                key, _, value = word.partition("=")
-                env[key] = value
-    return env
 
 
 def dockerignore_admits(path, patterns):
@@ -122,20 +82,6 @@ def install_deps_packages():
         text = f.read()
     block = re.search(r"packages=\((.*?)\)", text, re.DOTALL).group(1)
     return set(block.split())
-
-
-def help_env(binary):
-    """{variable: default text} of the SOILVOL_* variables a binary's --help lists."""
-    text = subprocess.run([binary, "--help"], capture_output=True, text=True, timeout=30,
-                          check=True).stdout
-    found = {}
-    for m in re.finditer(r"--[\w-]+ \S+?(?:=(\S+))? \(Env:(SOILVOL_\w+)\)", text):
-        found[m.group(2)] = m.group(1)
-    return found
-
-
-def port_of(address):
-    return int(address.rsplit(":", 1)[1])
 
 
 def package_of(path):
@@ -181,37 +127,6 @@ def replay_copy(source, dest, into):
         target = os.path.join(target, os.path.basename(source))
     os.makedirs(os.path.dirname(target), exist_ok=True)
     shutil.copy(path, target)
-
-
-class RunningServer:
-    """soilvol-server with a given environment on ephemeral loopback ports."""
-
-    def __init__(self, env):
-        self.data_dir = tempfile.mkdtemp(prefix="soilvol-ship-")
-        env = dict(os.environ, **env)
-        env.update(SOILVOL_GRPC_ADDRESS="127.0.0.1:0", SOILVOL_HTTP_ADDRESS="127.0.0.1:0",
-                   SOILVOL_DATA_DIR=self.data_dir)
-        self.proc = subprocess.Popen([SERVER_BIN], env=env, stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.PIPE, text=True)
-        self.log, self.grpc_port = [], None
-        self.ready = threading.Event()
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stderr:
-            self.log.append(line)
-            m = re.search(r'listening.*\bgrpc_port"?[=:](\d+)', line)  # text or JSON log
-            if m:
-                self.grpc_port = int(m.group(1))
-                self.ready.set()
-        self.ready.set()
-
-    def stop(self):
-        self.proc.send_signal(signal.SIGTERM)
-        try:
-            return self.proc.wait(30)
-        finally:
-            shutil.rmtree(self.data_dir, ignore_errors=True)
 
 
 class Dockerfile(unittest.TestCase):
@@ -368,14 +283,13 @@ class Dockerfile(unittest.TestCase):
         with open(COMPOSE) as f:
             compose_env = yaml.safe_load(f)["services"]["server"].get("environment", {})
         env = dict(self.runtime_env, **{k: str(v) for k, v in compose_env.items()})
-        server = RunningServer(env)
+        server = ServerProcess(SERVER_BIN, env)
         try:
-            self.assertTrue(server.ready.wait(60), "".join(server.log))
-            self.assertIsNotNone(server.grpc_port, "".join(server.log))
+            grpc_port = server.wait_listening(60)["grpc_port"]
             command = re.search(r"CMD (\[.*\])", self.instructions("runtime", "HEALTHCHECK")[0])
             argv = yaml.safe_load(command.group(1))
             self.assertEqual(argv[0], "soilvol")
-            check_env = dict(os.environ, SOILVOL_SERVER=f"127.0.0.1:{server.grpc_port}")
+            check_env = dict(os.environ, SOILVOL_SERVER=f"127.0.0.1:{grpc_port}")
             done = subprocess.run([CLI_BIN] + argv[1:], env=check_env, capture_output=True,
                                   text=True, timeout=30)
             self.assertEqual(done.returncode, 0, done.stderr)
