@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "absl/strings/str_format.h"
+#include "bench/family_tables.hpp"
 #include "bench/stereo_tables.hpp"
 #include "bench/stereo_trial.hpp"
 #include "bench/tables.hpp"
@@ -123,6 +124,7 @@ int main(int argc, char** argv) {
     for (auto* cmd : {all, app.add_subcommand("table1", "paper Table 1: fill levels"),
                       app.add_subcommand("table2", "paper Table 2: grid sizes"),
                       app.add_subcommand("containers", "other containers"),
+                      app.add_subcommand("families", "every container family, random shapes"),
                       app.add_subcommand("robustness", "sensor and set-up variations"),
                       app.add_subcommand("stereo", "rendered stereo pairs at several fills")}) {
         cmd->add_option("--seeds", seeds, "seeds per row")
@@ -145,10 +147,21 @@ int main(int argc, char** argv) {
     int height = 480;
     stereo_demo->add_option("--width", width, "image width [px]")->check(CLI::Range(160, 4096));
     stereo_demo->add_option("--height", height, "image height [px]")->check(CLI::Range(120, 4096));
+    auto* family_case = app.add_subcommand("family-case", "one family case, cell by cell");
+    int family_index = 0, case_seed = 1;
+    double fill_share = 0.5;
+    family_case->add_option("--family", family_index, "index in the families table")
+        ->check(CLI::Range(0, 5));
+    family_case->add_option("--seed", case_seed, "seed")->check(CLI::Range(1, 1000));
+    family_case->add_option("--fill", fill_share, "fill as a share of the depth")
+        ->check(CLI::Range(0.0, 2.0));
     CLI11_PARSE(app, argc, argv);
 
     const std::string name = app.get_subcommands().front()->get_name();
     if (name == "demo") return Demo(std::cout);
+    if (name == "family-case") {
+        return soilvol::bench::FamilyCase(family_index, case_seed, fill_share, std::cout);
+    }
     if (name == "stereo-demo") {
         const auto kind = container == "paper"       ? soilvol::sim::ContainerKind::kPaperBucket
                           : container == "excavator" ? soilvol::sim::ContainerKind::kExcavatorBucket
@@ -160,6 +173,7 @@ int main(int argc, char** argv) {
     if (name == "table1" || name == "all") md << FillTable(seeds, std::cout);
     if (name == "table2" || name == "all") md << GridTable(seeds, std::cout);
     if (name == "containers" || name == "all") md << ContainerTable(seeds, std::cout);
+    if (name == "families" || name == "all") md << FamilyTable(seeds, std::cout);
     if (name == "robustness" || name == "all") md << RobustnessTable(seeds, std::cout);
     if (name == "speed" || name == "all") md << SpeedTable(reps, std::cout);
     if (name == "stereo" || name == "all") md << StereoFillTable(std::min(seeds, 3), std::cout);

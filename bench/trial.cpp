@@ -18,6 +18,7 @@ std::string ContainerName(sim::ContainerKind kind) { return sim::ContainerDescri
 RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
     sim::SceneSpec spec;
     spec.container = setup.container;
+    spec.shape = setup.shape;
     spec.sensor = setup.sensor;
     spec.jitter = setup.jitter;
     spec.soil_seed = seed;
@@ -39,6 +40,7 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
 sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t scan_index) {
     sim::SceneSpec spec;
     spec.container = setup.container;
+    spec.shape = setup.shape;
     spec.sensor = setup.sensor;
     spec.jitter = setup.jitter;
     spec.soil.fill_height_m = fill_m;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -13,6 +14,7 @@ namespace soilvol::bench {
 /// One simulated set-up: a container, a sensor, how much the container moves between scans.
 struct Setup {
     sim::ContainerKind container = sim::ContainerKind::kPaperBucket;
+    std::optional<sim::ContainerShape> shape;  ///< a random family member instead of `container`
     sim::SensorSpec sensor;
     sim::PoseJitter jitter{3.0, 0.05};  ///< the issue's "up to 3 deg, 5 cm"
     double corner_noise_m = 0.0;        ///< Gaussian error of the marked corners

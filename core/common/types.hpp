@@ -10,6 +10,12 @@ namespace soilvol {
 /// A point cloud: 3D points [m] in the frame its owner names (scan frame unless stated).
 using Cloud = std::vector<Eigen::Vector3f>;
 
+/// Points with one weight each (same length; empty weights mean all 1).
+struct WeightedCloud {
+    Cloud points;
+    std::vector<float> weights;
+};
+
 /// A rigid transform; `T_a_b` maps points from frame b into frame a.
 using Pose = Eigen::Isometry3d;
 

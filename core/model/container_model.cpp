@@ -6,8 +6,11 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/cloud/kd_tree.hpp"
 #include "core/cloud/local_surface.hpp"
+#include "core/cloud/ray_weights.hpp"
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/statistics.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/volume/surface_estimator.hpp"
 
@@ -36,44 +39,54 @@ bool InAlignmentSet(const Eigen::Vector3f& p, const Opening& opening, double ban
     return !(near_column && static_cast<double>(p.z()) < -band_m);
 }
 
-// Near-vertical surfaces of the container, inside the opening's column or around it (inner
-// and outer walls). Horizontal rims and sloped walls are not structure: the heightmap holds
-// them, and the lowest-layer rule of the surface fit keeps a rim's noise off the floor.
-Cloud StructurePoints(const Cloud& inside, const Cloud& outside, const ModelConfig& config,
-                      double radius_m) {
-    Cloud all = inside;
-    all.insert(all.end(), outside.begin(), outside.end());
-    const cloud::LocalSurface local =
-        cloud::SmoothLocalSurface(cloud::VoxelDownsample(all, config.smoothing_voxel_m), radius_m);
-    const auto max_nz =
-        static_cast<float>(std::cos(config.wall_min_slope_deg * 3.14159265358979 / 180.0));
+// The smoothed empty surface outside the opening's column (or above the opening): rim, outer
+// walls, linkage, high sides. No slope decides it: a wall inside the column, at any angle, is
+// the empty surface; a wall on the column's boundary lies half outside and so marks the returns
+// that noise spread into the column.
+Cloud StructurePoints(const Cloud& points, const Opening& opening, const ModelConfig& config,
+                      double radius_m, double depth_m) {
+    const cloud::LocalSurface local = cloud::SmoothLocalSurface(
+        cloud::VoxelDownsample(points, config.smoothing_voxel_m), radius_m);
+    const double top = config.heightmap.max_heap_slope * 0.5 *
+                       (opening.polygon.Max() - opening.polygon.Min()).minCoeff();
+    // Each voxel is classified by its smoothed position (noise averaged out) and kept at its
+    // own position: a smoothed edge shrinks away from the edge, the voxels do not.
     Cloud structure;
     for (std::size_t i = 0; i < local.points.size(); ++i) {
-        if (std::abs(local.normals[i].z()) < max_nz) structure.push_back(local.points[i]);
+        const Eigen::Vector3f& m = local.points[i];
+        const double z = static_cast<double>(m.z());
+        if (z < -depth_m - radius_m || z > top + radius_m) continue;
+        const Eigen::Vector2d xy = m.head<2>().cast<double>();
+        const bool over = opening.polygon.Contains(xy);
+        if (over && z <= config.inside_above_m) continue;
+        if (!over && opening.polygon.DistanceToBoundary(xy) > 2.0 * radius_m + 0.1) continue;
+        structure.push_back(local.sources[i]);
     }
     return structure;
 }
 
-// Columns near structure between the lowest inner point and the highest heap; what lies below
-// the container (its underside, the ground) does not mask the column above it.
-StructureMask MakeMask(const Cloud& structure, const Opening& opening, double radius_m,
-                       double depth_m, double max_heap_slope) {
-    const Eigen::Vector2d margin(radius_m, radius_m);
-    const double top =
-        max_heap_slope * 0.5 * (opening.polygon.Max() - opening.polygon.Min()).minCoeff();
-    return StructureMask(structure, radius_m, opening.polygon.Min() - margin,
-                         opening.polygon.Max() + margin, -depth_m - radius_m, top + radius_m);
-}
-
 double LowestZ(const Cloud& points) {
     std::vector<float> z;
+    z.reserve(points.size());
     for (const auto& p : points) z.push_back(p.z());
-    const auto k = static_cast<long>(0.002 * static_cast<double>(z.size()));
-    std::nth_element(z.begin(), z.begin() + k, z.end());
-    return static_cast<double>(z[static_cast<std::size_t>(k)]);
+    return QuantileInPlace(z, 0.002);
 }
 
 }  // namespace
+
+WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points) {
+    if (model.structure.empty() || model.structure_radius_m <= 0.0) return points;
+    const cloud::KdTree tree(model.structure);
+    const auto r2 = static_cast<float>(model.structure_radius_m * model.structure_radius_m);
+    WeightedCloud kept;
+    kept.points.reserve(points.points.size());
+    for (std::size_t i = 0; i < points.points.size(); ++i) {
+        if (tree.Nearest(points.points[i]).second <= r2) continue;
+        kept.points.push_back(points.points[i]);
+        if (!points.weights.empty()) kept.weights.push_back(points.weights[i]);
+    }
+    return kept;
+}
 
 double HeapVolume(const Polygon2d& opening, double slope) {
     return slope * opening.DistanceIntegral();
@@ -94,10 +107,22 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
             "only ", model.inside.size(), " points of the empty scan lie inside the opening (need ",
             config.min_inside_points, "): check the corners and that the inside is visible"));
     }
+    // The noise sets how widely surfaces are averaged: a mean over a radius of 2 sigmas keeps
+    // most of a point's noise, one over 3 sigmas a third of it.
+    const double cell_m = config.heightmap.cell_m > 0.0
+                              ? config.heightmap.cell_m
+                              : volume::AutomaticCellSize(model.inside.size(),
+                                                          model.opening.polygon, config.heightmap);
+    const volume::Grid grid = volume::MakeGrid(model.opening.polygon, cell_m);
+    SOILVOL_ASSIGN_OR_RETURN(
+        const volume::SurfaceMap rough,
+        volume::EstimateSurface(grid, model.inside, {}, config.heightmap.surface));
+    model.smoothing_radius_m =
+        std::max(config.smoothing_radius_m, config.smoothing_sigmas * rough.noise_sigma_m);
     // The whole scan smoothed as the pipeline smooths each new scan before ICP (AlignConfig),
     // so that a mean near the rim sees the same surfaces in both; then selected and thinned.
     const cloud::LocalSurface surface = cloud::SmoothLocalSurface(
-        cloud::VoxelDownsample(points, config.smoothing_voxel_m), config.smoothing_radius_m);
+        cloud::VoxelDownsample(points, config.smoothing_voxel_m), model.smoothing_radius_m);
     Cloud selected, selected_normals;
     for (std::size_t i = 0; i < surface.points.size(); ++i) {
         if (!InAlignmentSet(surface.sources[i], model.opening, config.wall_band_m)) continue;
@@ -116,28 +141,28 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
             config.min_alignment_points, "): the container's outside must be visible to align it"));
     }
     // Sec. 3.2: the empty surface; struck capacity is the volume between it and the opening.
-    const double cell_m = config.heightmap.cell_m > 0.0
-                              ? config.heightmap.cell_m
-                              : volume::AutomaticCellSize(model.inside.size(),
-                                                          model.opening.polygon, config.heightmap);
-    const volume::Grid grid = volume::MakeGrid(model.opening.polygon, cell_m);
-    SOILVOL_ASSIGN_OR_RETURN(const volume::SurfaceMap rough,
-                             volume::EstimateSurface(grid, model.inside, config.heightmap.surface));
-    const double radius = std::clamp(config.structure_sigmas * rough.noise_sigma_m,
-                                     config.min_structure_radius_m, config.max_structure_radius_m);
+    // Noise sigmas, plus half a voxel: the structure is kept as voxel centroids.
+    model.structure_radius_m =
+        std::clamp(config.structure_sigmas * rough.noise_sigma_m + 0.5 * config.smoothing_voxel_m,
+                   config.min_structure_radius_m, config.max_structure_radius_m);
     model.structure =
-        StructurePoints(model.inside, outside, config, std::max(radius, config.smoothing_radius_m));
-    model.mask = MakeMask(model.structure, model.opening, radius, -LowestZ(model.inside),
-                          config.heightmap.max_heap_slope);
-    model.floor = model.mask.Filter(model.inside);
-    if (model.floor.size() < config.min_inside_points) {
-        return absl::FailedPreconditionError(
-            absl::StrCat("only ", model.floor.size(),
-                         " points of the empty scan lie on its floor clear of the walls (need ",
-                         config.min_inside_points, "): the floor must be visible"));
+        StructurePoints(points, model.opening, config,
+                        std::max(model.structure_radius_m, config.smoothing_radius_m),
+                        -LowestZ(model.inside));
+    model.cavity = RemoveStructure(model, WeightedCloud{model.inside, {}});
+    if (model.cavity.points.size() < config.min_inside_points) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "only ", model.cavity.points.size(),
+            " points of the empty scan lie inside the container clear of its rim and walls (need ",
+            config.min_inside_points, "): the inside must be visible"));
     }
-    SOILVOL_ASSIGN_OR_RETURN(const volume::SurfaceMap empty,
-                             volume::EstimateSurface(grid, model.floor, config.heightmap.surface));
+    const Eigen::Vector3d sensor = model.opening.T_scan_container.inverse().translation();
+    model.cavity.weights = cloud::RayWeights(model.cavity.points, sensor, rough.noise_sigma_m,
+                                             config.heightmap.ray_weights);
+    SOILVOL_ASSIGN_OR_RETURN(
+        const volume::SurfaceMap empty,
+        volume::EstimateSurface(grid, model.cavity.points, model.cavity.weights,
+                                config.heightmap.surface));
     double lowest = 0.0;
     for (std::size_t k = 0; k < grid.weight.size(); ++k) {
         if (grid.weight[k] <= 0.0) continue;

@@ -6,7 +6,6 @@
 #include "core/cloud/preprocess.hpp"
 #include "core/common/types.hpp"
 #include "core/model/opening.hpp"
-#include "core/model/structure_mask.hpp"
 #include "core/volume/heightmap_volume.hpp"
 
 namespace soilvol::model {
@@ -23,11 +22,10 @@ struct ModelConfig {
     /// Smoothing of the alignment set; must match AlignConfig's target_voxel_m and
     /// smoothing_radius_m, which treat each scan the same way.
     double smoothing_voxel_m = 0.03;
-    double smoothing_radius_m = 0.08;
-    /// Surfaces steeper than this from horizontal are walls: their columns are masked.
-    double wall_min_slope_deg = 85.0;
-    double wall_normal_radius_m = 0.12;  ///< at least; 3 noise sigmas when larger
-    /// The structure mask reaches this many noise sigmas from the container's walls and rim.
+    double smoothing_radius_m = 0.08;  ///< at least; `smoothing_sigmas` noise sigmas when larger
+    double smoothing_sigmas = 3.0;
+    /// Returns within this many noise sigmas of the container's structure (its surfaces outside
+    /// the opening's column: rim, outer walls, linkage, high sides) are not contents.
     double structure_sigmas = 2.5;
     double min_structure_radius_m = 0.02;
     double max_structure_radius_m = 0.15;
@@ -40,10 +38,11 @@ struct ModelConfig {
 /// Clouds are in the container frame of `opening`.
 struct ContainerModel {
     Opening opening;  ///< T_scan_container: the container in the empty scan's frame
-    Cloud inside;     ///< empty points over the opening
-    Cloud floor;      ///< inside points clear of the structure mask: the empty surface
-    Cloud structure;  ///< walls, rim and outside, voxel-thinned: what the mask is built from
-    StructureMask mask;
+    Cloud inside;           ///< empty points over the opening
+    WeightedCloud cavity;   ///< inside points clear of the structure, with ray weights
+    Cloud structure;        ///< smoothed empty surface outside the opening's column
+    double structure_radius_m = 0.0;  ///< returns this near the structure are not contents
+    double smoothing_radius_m = 0.0;  ///< of the alignment set; each scan is smoothed alike
     Cloud alignment_points;               ///< outside points used for ICP
     Cloud alignment_normals;              ///< unit normals of alignment_points
     double depth_m = 0.0;                 ///< opening plane to the lowest empty-surface cell
@@ -60,6 +59,10 @@ struct ContainerModel {
 /// few points fall inside or outside the opening.
 absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
                                                    const ModelConfig& config);
+
+/// The points of `points` (container frame) farther than the model's structure radius from its
+/// structure, with their weights.
+WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points);
 
 /// Struck capacity [m^3] from an empty surface: sum over cells of area x depth below z = 0.
 /// Heaped capacity adds slope x the integral of the distance to the opening edge:

@@ -30,6 +30,10 @@ class Writer {
             for (int i = 0; i < 3; ++i) Put<float>(p[i]);
         }
     }
+    void PutFloats(const std::vector<float>& values) {
+        Put<uint64_t>(values.size());
+        for (const float v : values) Put<float>(v);
+    }
     std::string Take() { return std::move(out_); }
 
   private:
@@ -67,6 +71,19 @@ class Reader {
         }
         return cloud;
     }
+    std::vector<float> GetFloats(const char* field) {
+        const uint64_t count = Get<uint64_t>();
+        if (!ok() || count > Remaining() / sizeof(float)) {
+            Fail(absl::StrCat(field, ": count ", count, " exceeds the payload"));
+            return {};
+        }
+        std::vector<float> values(count);
+        for (float& v : values) {
+            v = Get<float>();
+            if (!std::isfinite(v)) Fail(absl::StrCat(field, " has a non-finite value"));
+        }
+        return values;
+    }
     bool Has(std::size_t n) {
         if (ok() && Remaining() >= n) return true;
         Fail("payload is truncated");
@@ -102,32 +119,6 @@ Pose GetPose(Reader& r) {
     return pose;
 }
 
-void PutMask(Writer& w, const StructureMask::Columns& g) {
-    w.Put<double>(g.cell_m);
-    w.Put<double>(g.lo.x());
-    w.Put<double>(g.lo.y());
-    w.Put<int32_t>(g.cols);
-    w.Put<int32_t>(g.rows);
-    for (const uint8_t m : g.marked) w.Put<uint8_t>(m);
-}
-
-StructureMask GetMask(Reader& r) {
-    StructureMask::Columns g;
-    g.cell_m = r.GetFinite("mask cell");
-    g.lo.x() = r.GetFinite("mask origin");
-    g.lo.y() = r.GetFinite("mask origin");
-    g.cols = r.Get<int32_t>();
-    g.rows = r.Get<int32_t>();
-    if (!(g.cell_m > 0.0) || g.cols < 0 || g.rows < 0 ||
-        static_cast<uint64_t>(g.cols) * static_cast<uint64_t>(g.rows) > r.Remaining()) {
-        r.Fail("mask grid is inconsistent");
-        return {};
-    }
-    g.marked.resize(static_cast<std::size_t>(g.cols) * static_cast<std::size_t>(g.rows));
-    for (uint8_t& m : g.marked) m = r.Get<uint8_t>();
-    return StructureMask(std::move(g));
-}
-
 std::string EncodePayload(const ContainerModel& model) {
     Writer w;
     PutPose(w, model.opening.T_scan_container);
@@ -139,13 +130,13 @@ std::string EncodePayload(const ContainerModel& model) {
     }
     w.Put<double>(model.opening.nonplanarity_m);
     w.Put<double>(model.opening.area_m2);
-    for (const Cloud* cloud : {&model.inside, &model.floor, &model.structure,
+    for (const Cloud* cloud : {&model.inside, &model.cavity.points, &model.structure,
                                &model.alignment_points, &model.alignment_normals}) {
         w.PutCloud(*cloud);
     }
-    PutMask(w, model.mask.columns());
+    w.PutFloats(model.cavity.weights);
     for (const double value :
-         {model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
+         {model.structure_radius_m, model.smoothing_radius_m, model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
           model.heaped_capacity_iso_m3, model.noise_sigma_m}) {
         w.Put<double>(value);
     }
@@ -169,14 +160,19 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
     model.opening.nonplanarity_m = r.GetFinite("opening nonplanarity");
     model.opening.area_m2 = r.GetFinite("opening area");
     model.inside = r.GetCloud("inside");
-    model.floor = r.GetCloud("floor");
+    model.cavity.points = r.GetCloud("cavity");
     model.structure = r.GetCloud("structure");
     model.alignment_points = r.GetCloud("alignment points");
     model.alignment_normals = r.GetCloud("alignment normals");
     if (model.alignment_points.size() != model.alignment_normals.size()) {
         r.Fail("alignment points and normals differ in count");
     }
-    model.mask = GetMask(r);
+    model.cavity.weights = r.GetFloats("cavity weights");
+    if (model.cavity.weights.size() != model.cavity.points.size()) {
+        r.Fail("cavity points and weights differ in count");
+    }
+    model.structure_radius_m = r.GetFinite("structure radius");
+    model.smoothing_radius_m = r.GetFinite("smoothing radius");
     model.depth_m = r.GetFinite("depth");
     model.struck_capacity_m3 = r.GetFinite("struck capacity");
     model.heaped_capacity_sae_m3 = r.GetFinite("heaped capacity (SAE)");

@@ -10,7 +10,7 @@
 namespace soilvol::model {
 
 /// Version of the binary model layout; other versions are refused on decoding.
-inline constexpr uint32_t kModelCodecVersion = 1;
+inline constexpr uint32_t kModelCodecVersion = 2;
 
 /// The model as bytes: magic "SOILVOLM", version, payload size, payload (little-endian), and a
 /// 64-bit FNV-1a checksum of the payload.

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/status/status.h"
+#include "core/cloud/ray_weights.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
 
@@ -11,16 +12,23 @@ namespace soilvol::pipeline {
 namespace {
 
 absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& model,
-                                               const Cloud& aligned, const EstimateConfig& config) {
+                                               const Cloud& aligned, const Pose& T_scan_container,
+                                               const EstimateConfig& config) {
     const Polygon2d& opening = model.opening.polygon;
     if (config.method == volume::Method::kPaper) {
-        const Cloud column =
-            volume::SelectColumn(aligned, opening, -model.depth_m, config.heightmap);
-        return volume::PaperVolume(model.inside, column, opening, config.paper);
+        const WeightedCloud column = volume::SelectColumn(WeightedCloud{aligned, {}}, opening,
+                                                          -model.depth_m, config.heightmap);
+        return volume::PaperVolume(model.inside, column.points, opening, config.paper);
     }
-    // Returns of the container's own walls and rim are not contents.
-    return volume::HeightmapVolume(model.floor, model.mask.Filter(aligned), opening,
-                                   config.heightmap);
+    // Returns of the container's own rim and outside are not contents; every other return
+    // weighs by what it tells of the height under it, seen along its ray.
+    WeightedCloud column = model::RemoveStructure(
+        model,
+        volume::SelectColumn(WeightedCloud{aligned, {}}, opening, -model.depth_m, config.heightmap));
+    const Eigen::Vector3d sensor = T_scan_container.inverse().translation();
+    column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
+                                       config.heightmap.ray_weights);
+    return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap);
 }
 
 }  // namespace
@@ -43,13 +51,16 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     timer.Lap();
     // Sec. 3.3: align the model's outside to the scan.
     const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
+    align::AlignConfig align = config.align;
+    align.smoothing_radius_m = std::max(align.smoothing_radius_m, model.smoothing_radius_m);
     estimate.alignment = align::Align(model.alignment_points, model.alignment_normals, pre.points,
-                                      initial, config.align);
+                                      initial, align);
     estimate.timings.align_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
     // Sec. 3.4: grid and integrate in the container frame.
     const Cloud aligned = model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container);
-    SOILVOL_ASSIGN_OR_RETURN(estimate.volume, Integrate(model, aligned, config));
+    SOILVOL_ASSIGN_OR_RETURN(estimate.volume,
+                             Integrate(model, aligned, estimate.alignment.T_scan_container, config));
     estimate.timings.volume_ms = timer.Lap();
     estimate.volume_m3 = estimate.volume.volume_m3;
     const double align_m3 = model.opening.area_m2 * estimate.alignment.z_sigma_m;

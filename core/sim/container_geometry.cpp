@@ -2,6 +2,7 @@
 #include <cmath>
 #include <utility>
 
+#include "core/sim/container_shell.hpp"
 #include "core/sim/mesh_builder.hpp"
 #include "core/sim/scene.hpp"
 
@@ -10,83 +11,6 @@ namespace soilvol::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-using Profile = std::vector<Eigen::Vector2d>;  // (y, z) points
-
-struct Shape {
-    double length_m = 0.0;  // opening along x
-    Profile profile;        // inner profile, edge to edge
-    double wall_m = 0.025;
-    double rim_width_m = 0.06;
-    double rim_thickness_m = 0.03;
-};
-
-Profile BoxProfile(double width_m, double depth_m) {
-    const double hy = 0.5 * width_m;
-    return {{-hy, 0.0}, {-hy, -depth_m}, {hy, -depth_m}, {hy, 0.0}};
-}
-
-// Sloped front wall, flat floor, back wall as an elliptic quarter arc in `arc_segments` chords.
-Profile ExcavatorProfile(double width_m, double depth_m, double floor_m, double front_run_m,
-                         int arc_segments) {
-    const double hy = 0.5 * width_m;
-    const double floor_end = -hy + front_run_m + floor_m;
-    Profile profile = {{-hy, 0.0}, {-hy + front_run_m, -depth_m}, {floor_end, -depth_m}};
-    for (int i = 1; i <= arc_segments; ++i) {
-        const double angle = 0.5 * kPi * i / arc_segments;
-        profile.emplace_back(floor_end + (hy - floor_end) * std::sin(angle),
-                             -depth_m * std::cos(angle));
-    }
-    profile.back() = {hy, 0.0};
-    return profile;
-}
-
-// Outward normal (away from the cavity) of the profile segment a -> b.
-Eigen::Vector2d OutwardNormal(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    const Eigen::Vector2d u = (b - a).normalized();
-    return {u.y(), -u.x()};
-}
-
-// Outer wall profile at distance `wall_m` (mitred joints); both ends end on z = 0.
-Profile OuterProfile(const Profile& inner, double wall_m) {
-    const size_t n = inner.size();
-    Profile outer(n);
-    for (size_t i = 1; i + 1 < n; ++i) {
-        const Eigen::Vector2d n0 = OutwardNormal(inner[i - 1], inner[i]);
-        const Eigen::Vector2d n1 = OutwardNormal(inner[i], inner[i + 1]);
-        outer[i] = inner[i] + wall_m * (n0 + n1) / (1.0 + n0.dot(n1));
-    }
-    // The end points continue their segment to z = 0.
-    for (const auto& [end, next] : {std::pair{size_t{0}, size_t{1}}, std::pair{n - 1, n - 2}}) {
-        const Eigen::Vector2d u = (inner[next] - inner[end]).normalized();
-        const Eigen::Vector2d normal = end == 0 ? OutwardNormal(inner[0], inner[1])
-                                                : OutwardNormal(inner[n - 2], inner[n - 1]);
-        const Eigen::Vector2d p = inner[end] + wall_m * normal;
-        outer[end] = p + (std::abs(u.y()) > 1e-12 ? -p.y() / u.y() : 0.0) * u;
-    }
-    return outer;
-}
-
-// Walls and floor as one slab per profile segment, closed by two side plates, plus the rim.
-void AddShell(const Shape& shape, MeshBuilder* mesh) {
-    const double hx = 0.5 * shape.length_m;
-    const double t = shape.wall_m;
-    const Profile outer = OuterProfile(shape.profile, t);
-    for (size_t i = 0; i + 1 < shape.profile.size(); ++i) {
-        mesh->AddPrismX({shape.profile[i], shape.profile[i + 1], outer[i + 1], outer[i]}, -hx - t,
-                        hx + t);
-    }
-    mesh->AddPrismX(outer, hx, hx + t);
-    mesh->AddPrismX(outer, -hx - t, -hx);
-
-    const double hy = 0.5 * (shape.profile.back().x() - shape.profile.front().x());
-    const double w = shape.rim_width_m;
-    const double z0 = -shape.rim_thickness_m;
-    mesh->AddBox({-hx - w, -hy - w, z0}, {hx + w, -hy, 0.0});
-    mesh->AddBox({-hx - w, hy, z0}, {hx + w, hy + w, 0.0});
-    mesh->AddBox({-hx - w, -hy, z0}, {-hx, hy, 0.0});
-    mesh->AddBox({hx, -hy, z0}, {hx + w, hy, 0.0});
-}
 
 Eigen::Matrix3d RotationZX(double about_z_deg, double about_x_deg) {
     return (Eigen::AngleAxisd(about_z_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()) *
@@ -102,7 +26,7 @@ void AddPaperBucketLinkage(MeshBuilder* mesh) {
     mesh->AddOrientedBox({0.75, 0.48, -0.30}, {0.06, 0.18, 0.06}, RotationZX(30.0, -20.0));
 }
 
-void AddExcavatorLinkage(const Shape& shape, MeshBuilder* mesh) {
+void AddExcavatorLinkage(const ShellSpec& shape, MeshBuilder* mesh) {
     const Profile lug = {{0.50, -0.18}, {0.75, -0.05}, {0.78, 0.12}, {0.62, 0.20}, {0.505, 0.10}};
     mesh->AddPrismX(lug, -0.33, -0.28);
     mesh->AddPrismX(lug, 0.10, 0.15);
@@ -133,29 +57,6 @@ void AddTruckParts(MeshBuilder* mesh) {
     mesh->AddPrismX(tank, -1.4, -0.5);
 }
 
-// Area [m^2] between the profile and z = 0.
-double ProfileArea(const Profile& profile) {
-    double area = 0.0;
-    for (size_t i = 0; i + 1 < profile.size(); ++i) {
-        area -= 0.5 * (profile[i].y() + profile[i + 1].y()) * (profile[i + 1].x() - profile[i].x());
-    }
-    return area;
-}
-
-void SetOpening(const Shape& shape, ContainerGeometry* container) {
-    const double hx = 0.5 * shape.length_m;
-    const double hy = 0.5 * (shape.profile.back().x() - shape.profile.front().x());
-    container->opening_length_m = shape.length_m;
-    container->opening_width_m = 2.0 * hy;
-    container->opening_corners = {Eigen::Vector3d(-hx, -hy, 0.0), Eigen::Vector3d(hx, -hy, 0.0),
-                                  Eigen::Vector3d(hx, hy, 0.0), Eigen::Vector3d(-hx, hy, 0.0)};
-    container->inner_profile_yz = shape.profile;
-    double min_z = 0.0;
-    for (const Eigen::Vector2d& p : shape.profile) min_z = std::min(min_z, p.y());
-    container->depth_m = -min_z;
-    container->struck_capacity_m3 = shape.length_m * ProfileArea(shape.profile);
-}
-
 }  // namespace
 
 double ContainerGeometry::InnerSurfaceZ(double x, double y) const {
@@ -177,7 +78,7 @@ ContainerGeometry MakeContainer(ContainerKind kind) {
     ContainerGeometry container;
     container.kind = kind;
     MeshBuilder mesh(&container.vertices, &container.triangles);
-    Shape shape;
+    ShellSpec shape;
     switch (kind) {
         case ContainerKind::kPaperBucket:
             container.name = "paper_bucket";

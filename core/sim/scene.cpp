@@ -37,7 +37,8 @@ SensorSpec ViewpointFor(ContainerKind kind) {
 }
 
 Scene SimulateScene(const SceneSpec& spec) {
-    const ContainerGeometry container = MakeContainer(spec.container);
+    const ContainerGeometry container =
+        spec.shape ? MakeContainer(*spec.shape) : MakeContainer(spec.container);
     const SoilSurface soil(container, spec.soil, spec.soil_seed);
     std::mt19937_64 rng(spec.scan_seed);
 

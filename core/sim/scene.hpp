@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,44 @@ struct ContainerGeometry {
 
 /// Builds the exact geometry of one container kind.
 ContainerGeometry MakeContainer(ContainerKind kind);
+
+/// Families of containers with random dimensions, for benchmarks and tests that must not be
+/// tuned to one shape. Walls are given by their angle from the opening plane (90 = vertical).
+enum class ContainerFamily {
+    kBox,               ///< vertical walls, flat floor (buckets and bins, 0.5-2.5 m)
+    kSlopedSymmetric,   ///< front and back walls at one angle, 55-90 deg
+    kSlopedAsymmetric,  ///< front and back walls at two different angles, 55-90 deg
+    kExcavator,         ///< sloped front, concave back curving from vertical to the floor
+    kFlaredBody,        ///< haul body 3-6 m long whose side walls flare outward, with a cab
+    kHighSideBin,       ///< box bin whose back wall rises above the opening
+};
+
+/// Every family, in report order.
+const std::vector<ContainerFamily>& AllFamilies();
+std::string FamilyName(ContainerFamily family);
+
+/// A container of a family with its dimensions. The profile (front wall at -y, back wall at +y)
+/// is extruded along x between vertical end plates.
+struct ContainerShape {
+    ContainerFamily family = ContainerFamily::kBox;
+    double length_m = 1.5;        ///< opening along x
+    double width_m = 0.8;         ///< opening along y
+    double depth_m = 0.6;         ///< opening plane to the floor
+    double front_wall_deg = 90;   ///< wall at -y, from the opening plane
+    double back_wall_deg = 90;    ///< wall at +y (kExcavator: the arc, vertical at the rim)
+    double floor_fraction = 0.4;  ///< kExcavator: flat floor as a share of the width
+    double wall_m = 0.025;
+    double rim_width_m = 0.06;
+    double rim_thickness_m = 0.03;
+    double high_side_m = 0.0;  ///< kHighSideBin: back wall height above the opening
+    bool linkage = true;       ///< lugs and a cylinder (buckets) or a cab (bodies)
+};
+
+/// A shape of `family` with dimensions drawn uniformly from the family's ranges (seeded).
+ContainerShape RandomShape(ContainerFamily family, uint64_t seed);
+
+/// Exact geometry of a shape.
+ContainerGeometry MakeContainer(const ContainerShape& shape);
 
 /// "paper bucket 2.05x0.54x0.6 m", ... for reports.
 std::string ContainerDescription(ContainerKind kind);
@@ -81,6 +120,7 @@ struct PoseJitter {
 
 struct SceneSpec {
     ContainerKind container = ContainerKind::kPaperBucket;
+    std::optional<ContainerShape> shape;  ///< when set, used instead of `container`
     SoilSpec soil;
     SensorSpec sensor;
     PoseJitter jitter;
@@ -98,6 +138,11 @@ struct Scene {
     double heaped_capacity_sae_m3 = 0.0;  ///< struck + 1:1 heap (SAE J296)
     double heaped_capacity_iso_m3 = 0.0;  ///< struck + 2:1 heap (ISO 7546)
 };
+
+/// A sensor that sees most of `shape`'s inside: 50-65 deg elevation, from the side its walls
+/// face (the low side of a high-side bin, behind an excavator's back), at a distance that keeps
+/// the whole container in a 60 deg view; angles drawn from `seed`.
+SensorSpec ViewpointFor(const ContainerShape& shape, uint64_t seed);
 
 /// Simulates one scan; deterministic for a given spec.
 Scene SimulateScene(const SceneSpec& spec);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/common/statistics.hpp"
 #include "core/common/status_macros.hpp"
 
 namespace soilvol::volume {
@@ -15,10 +16,7 @@ double LowQuantileZ(const Cloud& points, double q) {
     std::vector<float> z;
     z.reserve(points.size());
     for (const auto& p : points) z.push_back(p.z());
-    if (z.empty()) return 0.0;
-    const auto k = static_cast<long>(q * static_cast<double>(z.size() - 1));
-    std::nth_element(z.begin(), z.begin() + k, z.end());
-    return static_cast<double>(z[static_cast<std::size_t>(k)]);
+    return z.empty() ? 0.0 : QuantileInPlace(z, q);
 }
 
 double MaxInradius(const Polygon2d& opening) {
@@ -66,35 +64,40 @@ double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening
     return std::clamp(cell, config.min_cell_m, max_cell);
 }
 
-Cloud SelectColumn(const Cloud& scan, const Polygon2d& opening, double empty_min_z,
-                   const HeightmapConfig& config) {
+WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, double empty_min_z,
+                           const HeightmapConfig& config) {
     const Eigen::Vector2d lo = opening.Min(), hi = opening.Max();
     const double z_min = empty_min_z - config.column_margin_m;
     const double z_max = config.max_heap_slope * MaxInradius(opening) + config.column_margin_m;
-    Cloud column;
-    for (const auto& p : scan) {
+    WeightedCloud column;
+    for (std::size_t i = 0; i < scan.points.size(); ++i) {
+        const Eigen::Vector3f& p = scan.points[i];
         const double x = static_cast<double>(p.x()), y = static_cast<double>(p.y());
         const double z = static_cast<double>(p.z());
         if (x >= lo.x() && x <= hi.x() && y >= lo.y() && y <= hi.y() && z >= z_min && z <= z_max) {
-            column.push_back(p);
+            column.points.push_back(p);
+            if (!scan.weights.empty()) column.weights.push_back(scan.weights[i]);
         }
     }
     return column;
 }
 
-absl::StatusOr<VolumeResult> HeightmapVolume(const Cloud& empty_inside, const Cloud& scan,
-                                             const Polygon2d& opening,
+absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
+                                             const WeightedCloud& scan, const Polygon2d& opening,
                                              const HeightmapConfig& config) {
-    const Cloud column = SelectColumn(scan, opening, LowQuantileZ(empty_inside, 0.005), config);
-    const double cell_m = config.cell_m > 0.0
-                              ? config.cell_m
-                              : AutomaticCellSize(CountInside(column, opening), opening, config);
+    const WeightedCloud column =
+        SelectColumn(scan, opening, LowQuantileZ(empty_inside.points, 0.005), config);
+    const double cell_m =
+        config.cell_m > 0.0 ? config.cell_m
+                            : AutomaticCellSize(CountInside(column.points, opening), opening, config);
     VolumeResult result;
     result.grid = MakeGrid(opening, cell_m);
     const Grid& grid = result.grid;
     SOILVOL_ASSIGN_OR_RETURN(const SurfaceMap empty,
-                             EstimateSurface(grid, empty_inside, config.surface));
-    SOILVOL_ASSIGN_OR_RETURN(SurfaceMap soil, EstimateSurface(grid, column, config.surface));
+                             EstimateSurface(grid, empty_inside.points, empty_inside.weights,
+                                             config.surface));
+    SOILVOL_ASSIGN_OR_RETURN(
+        SurfaceMap soil, EstimateSurface(grid, column.points, column.weights, config.surface));
     CapInterpolatedHeap(grid, opening, config.max_heap_slope, soil);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     result.soil_height_m.assign(num_cells, kNaN);

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "absl/status/statusor.h"
+#include "core/cloud/ray_weights.hpp"
 #include "core/common/polygon.hpp"
 #include "core/common/types.hpp"
 #include "core/volume/surface_estimator.hpp"
@@ -8,8 +9,9 @@
 
 namespace soilvol::volume {
 
-/// soilvol's estimator: heights along the opening normal, robust per-cell fits, harmonic hole
-/// filling, signed integration (noise is never clipped cell by cell), exact cell areas.
+/// soilvol's estimator: the empty surface and the scan's surface fitted alike (ray-weighted,
+/// symmetric robust local planes), harmonic hole filling, signed integration (noise is never
+/// clipped cell by cell), exact cell areas. See core/volume/README.md.
 struct HeightmapConfig {
     double cell_m = 0.0;                   ///< grid cell side; 0 = automatic from point density
     double target_points_per_cell = 16.0;  ///< density target of the automatic cell size
@@ -17,6 +19,7 @@ struct HeightmapConfig {
     double max_cell_fraction = 0.25;  ///< automatic cells stay below this share of the opening
     double max_heap_slope = 1.0;      ///< scan points above a heap this steep are ignored
     double column_margin_m = 0.15;    ///< points this far below the empty surface are ignored
+    cloud::RayWeightConfig ray_weights;  ///< how the points' height weights are computed
     SurfaceConfig surface;
 };
 
@@ -26,13 +29,14 @@ double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening
 
 /// The points of `scan` (container frame) that can belong to the contents: over the opening,
 /// no deeper than the empty surface minus the margin, no higher than the steepest heap.
-Cloud SelectColumn(const Cloud& scan, const Polygon2d& opening, double empty_min_z,
-                   const HeightmapConfig& config);
+WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, double empty_min_z,
+                           const HeightmapConfig& config);
 
-/// Soil volume between the empty surface (from `empty_inside`) and the scan's surface, both in
-/// the container frame. FailedPrecondition when either surface has no measurable cell.
-absl::StatusOr<VolumeResult> HeightmapVolume(const Cloud& empty_inside, const Cloud& scan,
-                                             const Polygon2d& opening,
+/// Soil volume between the empty surface (points of the empty container's inside) and the
+/// scan's surface, both in the container frame with ray weights. FailedPrecondition when either
+/// surface has no measurable cell.
+absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
+                                             const WeightedCloud& scan, const Polygon2d& opening,
                                              const HeightmapConfig& config);
 
 }  // namespace soilvol::volume

@@ -8,16 +8,20 @@
 
 namespace soilvol::volume {
 
-/// Robust per-cell height of a surface seen from above (container frame, z up).
+/// Height of a surface seen from above (container frame, z up), per grid cell, from points
+/// whose noise runs along their sensor rays. Every point weighs by how much it tells about the
+/// height under it (cloud::RayWeights) and by the area it stands for, so that steep walls and
+/// dense patches do not dominate; the fit is symmetric in the residuals, so noise above and
+/// below a surface cancel and the same surface seen twice gives the same height.
 struct SurfaceConfig {
     double min_window_points = 12.0;  ///< the fit window widens until it expects this many points
     int max_window_cells = 9;         ///< widest fit window, in cells (odd)
-    double inlier_sigmas = 2.5;       ///< inlier band around the fit, in noise sigmas
-    int ransac_iterations = 48;
-    double support_ratio = 0.5;          ///< hypotheses with this share of the best support compete
-    double min_support_fraction = 0.25;  ///< of the points the window should hold; fewer: a hole
-    double max_slope =
-        6.0;  ///< steeper fits (over 80 deg) are walls, not a surface seen from above
+    double tukey_sigmas = 4.685;      ///< Tukey biweight limit, in local residual sigmas
+    int robust_iterations = 4;
+    /// A cell is measured when points cover this share of its area (fine bins of a third of a
+    /// cell); others are holes, filled from their neighbours.
+    double min_observed_fraction = 0.25;
+    double max_slope = 8.0;         ///< fitted planes steeper than this (83 deg) fall back to a level
     double min_noise_m = 0.002;     ///< floor on the estimated noise sigma
     double default_noise_m = 0.02;  ///< used when too few points to estimate the noise
     int num_threads = 0;            ///< 0 = all cores
@@ -27,17 +31,20 @@ struct SurfaceConfig {
 struct SurfaceMap {
     std::vector<double> height;  ///< z [m] at each cell's anchor; NaN for cells outside the opening
     std::vector<double> variance;  ///< [m^2] of each height
-    std::vector<int> support;      ///< inlier points behind each height; 0 = interpolated
+    std::vector<int> support;      ///< points in the cell behind each height; 0 = interpolated
+    std::vector<double> observed;  ///< share of each cell's area that points cover
     double noise_sigma_m = 0.0;    ///< robust noise estimate along z
     int window_cells = 1;          ///< side of the fit window, in cells
     int measured = 0;
     int interpolated = 0;
 };
 
-/// Fits each cell's surface height robustly (RANSAC then trimmed least squares of a height-form
-/// plane evaluated at the cell's anchor) from `points` in the container frame, then fills holes by
-/// harmonic interpolation. FailedPrecondition when no cell has enough points.
+/// Fits each cell's surface height by a robust weighted local plane evaluated at the cell's
+/// anchor, from `points` (container frame) with per-point `weights` in [0, 1] (empty: all 1),
+/// then fills holes by harmonic interpolation. FailedPrecondition when no cell is measured;
+/// InvalidArgument when the weights do not match the points.
 absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points,
+                                           const std::vector<float>& weights,
                                            const SurfaceConfig& config);
 
 /// Fills the NaN heights of cells with weight > 0 by harmonic (Laplace) interpolation from the

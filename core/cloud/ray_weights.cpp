@@ -1,0 +1,39 @@
+#include "core/cloud/ray_weights.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/cloud/kd_tree.hpp"
+#include "core/cloud/local_surface.hpp"
+#include "core/cloud/voxel_grid.hpp"
+
+namespace soilvol::cloud {
+
+std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor_origin,
+                              double noise_sigma_m, const RayWeightConfig& config) {
+    std::vector<float> weights(points.size(), 0.0f);
+    if (points.empty()) return weights;
+    // Normals of the local surface, from neighbourhoods wide against the noise.
+    const double radius = std::max(config.radius_m, config.noise_sigmas * noise_sigma_m);
+    const LocalSurface surface =
+        SmoothLocalSurface(VoxelDownsample(points, config.voxel_m), radius);
+    if (surface.points.empty()) return weights;
+    const KdTree tree(surface.sources);
+    const Eigen::Vector3f origin = sensor_origin.cast<float>();
+    const auto n = static_cast<long>(points.size());
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < n; ++i) {
+        const auto k = static_cast<std::size_t>(i);
+        const auto [j, d2] = tree.Nearest(points[k]);
+        if (j < 0) continue;
+        const Eigen::Vector3f normal = surface.normals[static_cast<std::size_t>(j)];
+        const Eigen::Vector3f ray = (points[k] - origin).normalized();
+        const double nz2 = static_cast<double>(normal.z() * normal.z());
+        const double rn = static_cast<double>(ray.dot(normal));
+        const double v = nz2 / std::max(rn * rn, 1e-6);
+        weights[k] = static_cast<float>(v / (1.0 + v));
+    }
+    return weights;
+}
+
+}  // namespace soilvol::cloud
