@@ -148,7 +148,9 @@ namespace soilvol::bench {
 int FamilyCase(int family_index, int seed, double fill_share, std::ostream& out) {
     const auto& families = sim::AllFamilies();
     if (family_index < 0 || family_index >= static_cast<int>(families.size())) return 2;
-    const Setup setup = FamilySetup(families[static_cast<std::size_t>(family_index)], seed);
+    Setup setup = FamilySetup(families[static_cast<std::size_t>(family_index)], seed);
+    if (getenv("DBG_JITTER")) setup.jitter = {atof(getenv("DBG_JITTER")), 0.0};
+    if (getenv("DBG_NOISE")) setup.sensor.range_noise_sigma_m = atof(getenv("DBG_NOISE"));
     const sim::ContainerGeometry geometry = sim::MakeContainer(*setup.shape);
     const RegisteredModel reg = RegisterEmpty(setup, static_cast<uint64_t>(seed));
     if (!reg.model.ok()) {
@@ -183,6 +185,16 @@ int FamilyCase(int family_index, int seed, double fill_share, std::ostream& out)
     const volume::Grid& g = e->volume.grid;
     const auto empty = volume::EstimateSurface(g, reg.model->cavity.points,
                                                reg.model->cavity.weights, {});
+    {
+        int n_in = 0, n_cav = 0;
+        double zmin = 1e9, zmax = -1e9;
+        const double edge = -0.5 * setup.shape->width_m + 0.12;
+        for (const auto& p : reg.model->inside) {
+            if (p.y() < edge) { ++n_in; zmin = std::min(zmin, (double)p.z()); zmax = std::max(zmax, (double)p.z()); }
+        }
+        for (const auto& p : reg.model->cavity.points) if (p.y() < edge) ++n_cav;
+        out << "near band (-y, 12 cm): inside " << n_in << " cavity " << n_cav << " z " << zmin << ".." << zmax << "\n";
+    }
     if (empty.ok()) {
         out << "empty surface error [cm]\n";
         for (int r = g.rows - 1; r >= 0; --r) {

@@ -25,9 +25,14 @@ struct System {
     std::size_t count = 0;
 };
 
+struct Target {
+    Cloud points;
+    Cloud normals;  // unit, empty without smoothing
+};
+
 // The scan points near the model at its initial pose, voxel-averaged and smoothed.
-Cloud PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
-                    const AlignConfig& config) {
+Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
+                     const AlignConfig& config) {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const auto& p : source) centre += p.cast<double>();
     centre /= static_cast<double>(std::max<std::size_t>(source.size(), 1));
@@ -40,14 +45,18 @@ Cloud PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
     for (const auto& p : scan) {
         if ((p - c).squaredNorm() <= r2) cropped.push_back(p);
     }
-    const Cloud target = cloud::VoxelDownsample(cropped, config.target_voxel_m);
-    if (config.smoothing_radius_m <= 0.0) return target;
-    return cloud::SmoothLocalSurface(target, config.smoothing_radius_m).points;
+    Cloud voxels = cloud::VoxelDownsample(cropped, config.target_voxel_m);
+    if (config.smoothing_radius_m <= 0.0) return {std::move(voxels), {}};
+    cloud::LocalSurface surface = cloud::SmoothLocalSurface(voxels, config.smoothing_radius_m);
+    return {std::move(surface.points), std::move(surface.normals)};
 }
 
 // Point-to-plane normal equations at pose T: r = n'.(T p - q), left perturbation (w, t).
-System Linearize(const Cloud& source, const Cloud& normals, const Pose& T, const Cloud& target,
-                 const cloud::KdTree& tree, double max_dist, double max_residual, int threads) {
+// Pairs whose normals differ by more than acos(min_normal_cos) are different surfaces met at
+// an edge (a rim's top and the wall below it), not one surface seen twice.
+System Linearize(const Cloud& source, const Cloud& normals, const Pose& T, const Target& target,
+                 const cloud::KdTree& tree, double max_dist, double max_residual,
+                 double min_normal_cos, int threads) {
     System total;
     const Eigen::Matrix3f R = T.linear().cast<float>();
     const Eigen::Vector3f t = T.translation().cast<float>();
@@ -62,8 +71,13 @@ System Linearize(const Cloud& source, const Cloud& normals, const Pose& T, const
             const auto [j, d2] = tree.Nearest(p);
             if (j < 0 || d2 > max_d2) continue;
             const Eigen::Vector3d n = (R * normals[k]).cast<double>();
+            const auto tj = static_cast<std::size_t>(j);
+            if (!target.normals.empty() &&
+                std::abs(n.dot(target.normals[tj].cast<double>())) < min_normal_cos) {
+                continue;
+            }
             const Eigen::Vector3d pd = p.cast<double>();
-            const double r = n.dot(pd - target[static_cast<std::size_t>(j)].cast<double>());
+            const double r = n.dot(pd - target.points[tj].cast<double>());
             if (std::abs(r) > max_residual) continue;
             Vector6d J;
             J << pd.cross(n), n;
@@ -108,10 +122,11 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
                   const Pose& initial_T_scan_container, const AlignConfig& config) {
     AlignResult result;
     result.T_scan_container = initial_T_scan_container;
-    const Cloud target = PrepareTarget(source, scan, initial_T_scan_container, config);
-    result.target_points = target.size();
-    if (target.empty() || source.empty()) return result;
-    const cloud::KdTree tree(target);
+    const Target target = PrepareTarget(source, scan, initial_T_scan_container, config);
+    result.target_points = target.points.size();
+    if (target.points.empty() || source.empty()) return result;
+    const cloud::KdTree tree(target.points);
+    const double min_cos = std::cos(config.max_normal_angle_deg * 3.14159265358979 / 180.0);
     const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();
     std::vector<double> stages;
     if (config.coarse_max_correspondence_m > config.max_correspondence_m) {
@@ -125,7 +140,7 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
         std::vector<Pose> history;
         while (result.iterations < config.max_iterations && !stage_converged) {
             const System sys = Linearize(source, normals, T, target, tree, stages[s],
-                                         config.ransac_outlier_rejection_m, threads);
+                                         config.ransac_outlier_rejection_m, min_cos, threads);
             if (sys.count < 6) break;
             const Matrix6d H = sys.H + 1e-9 * Matrix6d::Identity();
             const Vector6d xi = H.ldlt().solve(-sys.g);
@@ -140,7 +155,7 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
     }
     // Figures at the final pose, fine distance.
     const System sys = Linearize(source, normals, T, target, tree, config.max_correspondence_m,
-                                 config.ransac_outlier_rejection_m, threads);
+                                 config.ransac_outlier_rejection_m, min_cos, threads);
     result.correspondences = sys.count;
     result.fitness = static_cast<double>(sys.count) / static_cast<double>(source.size());
     if (sys.count >= 6) {

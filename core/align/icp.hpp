@@ -29,6 +29,8 @@ struct AlignConfig {
     double target_voxel_m = 0.03;
     double smoothing_radius_m = 0.08;  ///< 0 = off
     double crop_margin_m = 0.30;       ///< scan cropped to the model's extent plus this margin
+    /// Correspondences whose normals differ by more than this are rejected (with smoothing).
+    double max_normal_angle_deg = 45.0;
     int num_threads = 0;               ///< 0 = all cores
 };
 

@@ -10,10 +10,12 @@ namespace soilvol {
 /// A point cloud: 3D points [m] in the frame its owner names (scan frame unless stated).
 using Cloud = std::vector<Eigen::Vector3f>;
 
-/// Points with one weight each (same length; empty weights mean all 1).
+/// Points with one weight each (same length; empty weights mean all 1), seen from `sensor`
+/// (same frame): every point's ray runs from the sensor to it through free space.
 struct WeightedCloud {
     Cloud points;
     std::vector<float> weights;
+    Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
 };
 
 /// A rigid transform; `T_a_b` maps points from frame b into frame a.

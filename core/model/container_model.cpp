@@ -30,13 +30,13 @@ void SplitInsideOutside(const Cloud& points, const Opening& opening, const Model
     }
 }
 
-// Points in the opening's column (or within `band_m` of it) below the rim are the inside and
-// the inner walls seen through noise; soil covers them, so they stay out of the alignment set.
-bool InAlignmentSet(const Eigen::Vector3f& p, const Opening& opening, double band_m) {
-    const Eigen::Vector2d xy = p.head<2>().cast<double>();
-    const bool near_column =
-        opening.polygon.Contains(xy) || opening.polygon.DistanceToBoundary(xy) < band_m;
-    return !(near_column && static_cast<double>(p.z()) < -band_m);
+// Returns over the opening are the inside and the inner walls; soil covers them, so they stay
+// out of the alignment set. The test reads smoothed positions and no height: a cut at a height
+// near the rim would keep the rim returns that noise lifted and drop those it lowered, and the
+// alignment would sink by a share of the noise.
+bool InAlignmentSet(const Eigen::Vector3f& p, const Opening& opening, double above_m) {
+    return !(opening.polygon.Contains(p.head<2>().cast<double>()) &&
+             static_cast<double>(p.z()) < above_m);
 }
 
 // The smoothed empty surface outside the opening's column (or above the opening): rim, outer
@@ -79,6 +79,7 @@ WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& 
     const cloud::KdTree tree(model.structure);
     const auto r2 = static_cast<float>(model.structure_radius_m * model.structure_radius_m);
     WeightedCloud kept;
+    kept.sensor = points.sensor;
     kept.points.reserve(points.points.size());
     for (std::size_t i = 0; i < points.points.size(); ++i) {
         if (tree.Nearest(points.points[i]).second <= r2) continue;
@@ -125,7 +126,7 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
         cloud::VoxelDownsample(points, config.smoothing_voxel_m), model.smoothing_radius_m);
     Cloud selected, selected_normals;
     for (std::size_t i = 0; i < surface.points.size(); ++i) {
-        if (!InAlignmentSet(surface.sources[i], model.opening, config.wall_band_m)) continue;
+        if (!InAlignmentSet(surface.points[i], model.opening, config.inside_above_m)) continue;
         selected.push_back(surface.points[i]);
         selected_normals.push_back(surface.normals[i]);
     }
@@ -159,10 +160,12 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
     const Eigen::Vector3d sensor = model.opening.T_scan_container.inverse().translation();
     model.cavity.weights = cloud::RayWeights(model.cavity.points, sensor, rough.noise_sigma_m,
                                              config.heightmap.ray_weights);
-    SOILVOL_ASSIGN_OR_RETURN(
-        const volume::SurfaceMap empty,
-        volume::EstimateSurface(grid, model.cavity.points, model.cavity.weights,
-                                config.heightmap.surface));
+    model.cavity.sensor = sensor;
+    SOILVOL_ASSIGN_OR_RETURN(const volume::EmptySurface empty_surface,
+                             volume::EstimateEmptySurface(grid, model.cavity, config.heightmap));
+    const volume::SurfaceMap& empty = empty_surface.map;
+    model.observed_share =
+        empty_surface.area_m2 > 0.0 ? empty_surface.observed_area_m2 / empty_surface.area_m2 : 0.0;
     double lowest = 0.0;
     for (std::size_t k = 0; k < grid.weight.size(); ++k) {
         if (grid.weight[k] <= 0.0) continue;

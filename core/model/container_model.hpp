@@ -50,6 +50,7 @@ struct ContainerModel {
     double heaped_capacity_sae_m3 = 0.0;  ///< struck + 1:1 heap (SAE J296)
     double heaped_capacity_iso_m3 = 0.0;  ///< struck + 2:1 heap (ISO 7546)
     double noise_sigma_m = 0.0;           ///< robust noise of the empty surface fit
+    double observed_share = 0.0;          ///< of the opening's area, seen by the empty scans
     std::size_t scan_points = 0;          ///< after preprocessing
     std::size_t outside_points = 0;
 };

@@ -135,8 +135,9 @@ std::string EncodePayload(const ContainerModel& model) {
         w.PutCloud(*cloud);
     }
     w.PutFloats(model.cavity.weights);
+    for (int i = 0; i < 3; ++i) w.Put<double>(model.cavity.sensor[i]);
     for (const double value :
-         {model.structure_radius_m, model.smoothing_radius_m, model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
+         {model.structure_radius_m, model.smoothing_radius_m, model.observed_share, model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
           model.heaped_capacity_iso_m3, model.noise_sigma_m}) {
         w.Put<double>(value);
     }
@@ -171,8 +172,10 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
     if (model.cavity.weights.size() != model.cavity.points.size()) {
         r.Fail("cavity points and weights differ in count");
     }
+    for (int i = 0; i < 3; ++i) model.cavity.sensor[i] = r.GetFinite("cavity sensor");
     model.structure_radius_m = r.GetFinite("structure radius");
     model.smoothing_radius_m = r.GetFinite("smoothing radius");
+    model.observed_share = r.GetFinite("observed share");
     model.depth_m = r.GetFinite("depth");
     model.struck_capacity_m3 = r.GetFinite("struck capacity");
     model.heaped_capacity_sae_m3 = r.GetFinite("heaped capacity (SAE)");

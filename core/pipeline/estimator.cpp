@@ -28,6 +28,7 @@ absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& mode
     const Eigen::Vector3d sensor = T_scan_container.inverse().translation();
     column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
                                        config.heightmap.ray_weights);
+    column.sensor = sensor;
     return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap);
 }
 

@@ -6,6 +6,7 @@
 
 #include "core/common/statistics.hpp"
 #include "core/common/status_macros.hpp"
+#include "core/volume/free_space.hpp"
 
 namespace soilvol::volume {
 namespace {
@@ -51,6 +52,43 @@ void CapInterpolatedHeap(const Grid& grid, const Polygon2d& opening, double slop
     }
 }
 
+// The empty surface under a cell too sparsely seen to fit lies between two bounds: below, the
+// plane its neighbours continue, or the returns the cell holds (the outside of a wall leaning
+// over it), whichever is higher; above, the lowest ray that passed over it. With no return
+// under it the cell sits at its lower bound (a vertical wall hides a floor that continues);
+// its 1-sigma is that of a uniform spread over the range [m].
+std::vector<double> BoundUnobservedEmpty(const Grid& grid, const std::vector<double>& ceiling,
+                                         const Cloud& points, SurfaceMap& empty) {
+    const CellBins bins = BinPoints(grid, points);
+    std::vector<double> sigma(empty.height.size(), 0.0);
+    for (std::size_t k = 0; k < empty.height.size(); ++k) {
+        if (grid.weight[k] <= 0.0 || empty.support[k] > 0 || !std::isfinite(ceiling[k])) continue;
+        std::vector<float> z;
+        for (int i = bins.start[k]; i < bins.start[k + 1]; ++i) {
+            z.push_back(points[static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)])].z());
+        }
+        const double hi = std::min(ceiling[k], 0.0);
+        double lo = empty.height[k];
+        if (z.size() >= 3) lo = std::max(lo, Median(z));
+        lo = std::min(lo, hi);
+        empty.height[k] = lo;
+        sigma[k] = (hi - lo) / std::sqrt(12.0);
+    }
+    return sigma;
+}
+
+// The soil surface under a cell the scan did not see continues its neighbours, between the
+// empty surface and the lowest ray that passed over it.
+void BoundUnobservedSoil(const Grid& grid, const std::vector<double>& ceiling,
+                         const SurfaceMap& empty, SurfaceMap& soil) {
+    for (std::size_t k = 0; k < soil.height.size(); ++k) {
+        if (grid.weight[k] <= 0.0 || soil.support[k] > 0) continue;
+        const double floor = empty.height[k];
+        const double top = std::max(floor, ceiling[k]);
+        soil.height[k] = std::clamp(soil.height[k], floor, top);
+    }
+}
+
 }  // namespace
 
 double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening,
@@ -70,6 +108,7 @@ WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, 
     const double z_min = empty_min_z - config.column_margin_m;
     const double z_max = config.max_heap_slope * MaxInradius(opening) + config.column_margin_m;
     WeightedCloud column;
+    column.sensor = scan.sensor;
     for (std::size_t i = 0; i < scan.points.size(); ++i) {
         const Eigen::Vector3f& p = scan.points[i];
         const double x = static_cast<double>(p.x()), y = static_cast<double>(p.y());
@@ -80,6 +119,21 @@ WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, 
         }
     }
     return column;
+}
+
+absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid, const WeightedCloud& empty,
+                                                  const HeightmapConfig& config) {
+    EmptySurface out;
+    SOILVOL_ASSIGN_OR_RETURN(out.map,
+                             EstimateSurface(grid, empty.points, empty.weights, config.surface));
+    out.unobserved_sigma_m =
+        BoundUnobservedEmpty(grid, FreeSpaceCeiling(grid, empty), empty.points, out.map);
+    for (std::size_t k = 0; k < out.map.height.size(); ++k) {
+        if (grid.weight[k] <= 0.0) continue;
+        out.area_m2 += grid.weight[k];
+        if (out.map.support[k] > 0) out.observed_area_m2 += grid.weight[k];
+    }
+    return out;
 }
 
 absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
@@ -93,12 +147,14 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
     VolumeResult result;
     result.grid = MakeGrid(opening, cell_m);
     const Grid& grid = result.grid;
-    SOILVOL_ASSIGN_OR_RETURN(const SurfaceMap empty,
-                             EstimateSurface(grid, empty_inside.points, empty_inside.weights,
-                                             config.surface));
+    SOILVOL_ASSIGN_OR_RETURN(const EmptySurface empty_surface,
+                             EstimateEmptySurface(grid, empty_inside, config));
+    const SurfaceMap& empty = empty_surface.map;
+    const std::vector<double>& unobserved_sigma = empty_surface.unobserved_sigma_m;
     SOILVOL_ASSIGN_OR_RETURN(
         SurfaceMap soil, EstimateSurface(grid, column.points, column.weights, config.surface));
     CapInterpolatedHeap(grid, opening, config.max_heap_slope, soil);
+    BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, column), empty, soil);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     result.soil_height_m.assign(num_cells, kNaN);
     result.state.assign(num_cells, CellState::kOutside);
@@ -106,6 +162,7 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
     const double ks = static_cast<double>(soil.window_cells * soil.window_cells);
     const double ke = static_cast<double>(empty.window_cells * empty.window_cells);
     double variance = 0.0;
+    double unobserved = 0.0;  // a hidden wall is one error over all its cells: summed linearly
     for (std::size_t k = 0; k < num_cells; ++k) {
         const double w = grid.weight[k];
         if (w <= 0.0) continue;
@@ -114,6 +171,7 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
         result.soil_height_m[k] = h;
         result.raw_volume_m3 += w * h;
         variance += w * w * var;
+        unobserved += w * unobserved_sigma[k];
         ++result.cells.total;
         if (soil.support[k] > 0) {
             result.state[k] = CellState::kMeasured;
@@ -125,7 +183,8 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
         if (h > 2.0 * std::sqrt(soil.variance[k] + empty.variance[k])) ++result.cells.with_soil;
     }
     result.volume_m3 = std::max(0.0, result.raw_volume_m3);
-    result.uncertainty_m3 = std::sqrt(variance);
+    result.uncertainty_m3 = std::hypot(std::sqrt(variance), unobserved);
+    result.unobserved_uncertainty_m3 = unobserved;
     result.scan_noise_sigma_m = soil.noise_sigma_m;
     result.model_noise_sigma_m = empty.noise_sigma_m;
     result.window_cells = soil.window_cells;

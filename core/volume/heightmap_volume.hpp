@@ -32,6 +32,20 @@ double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening
 WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, double empty_min_z,
                            const HeightmapConfig& config);
 
+/// The empty container's surface over a grid. Cells no empty scan saw well enough lie between
+/// the plane their neighbours continue (or the returns they hold, if higher) and the lowest
+/// empty-scan ray above them; they take the lower bound and a 1-sigma of the range / sqrt(12).
+struct EmptySurface {
+    SurfaceMap map;
+    std::vector<double> unobserved_sigma_m;  ///< per cell; 0 where observed
+    double area_m2 = 0.0;                    ///< of the opening
+    double observed_area_m2 = 0.0;           ///< of the cells the empty scans saw
+};
+
+/// FailedPrecondition when no cell of `empty` (container frame) can be fitted.
+absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid, const WeightedCloud& empty,
+                                                  const HeightmapConfig& config);
+
 /// Soil volume between the empty surface (points of the empty container's inside) and the
 /// scan's surface, both in the container frame with ray weights. FailedPrecondition when either
 /// surface has no measurable cell.

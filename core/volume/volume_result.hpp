@@ -27,6 +27,7 @@ struct VolumeResult {
     double volume_m3 = 0.0;       ///< max(0, raw_volume_m3)
     double raw_volume_m3 = 0.0;   ///< signed sum of cell volumes, noise not clipped
     double uncertainty_m3 = 0.0;  ///< 1-sigma from the per-cell statistics
+    double unobserved_uncertainty_m3 = 0.0;  ///< its part from empty surface no scan saw
     Grid grid;
     std::vector<double> soil_height_m;  ///< per cell, soil surface minus empty surface; NaN outside
     std::vector<CellState> state;       ///< per cell

@@ -1,0 +1,50 @@
+#include "core/volume/free_space.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+namespace soilvol::volume {
+
+std::vector<double> FreeSpaceCeiling(const Grid& grid, const WeightedCloud& scan) {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    // The third lowest ray of each cell: a stray return behind a surface does not lower it.
+    std::vector<std::array<double, 3>> lowest(static_cast<std::size_t>(grid.NumCells()),
+                                              {kInf, kInf, kInf});
+    const Eigen::Vector2d lo = grid.origin;
+    const Eigen::Vector2d hi = grid.origin + grid.cell_m * Eigen::Vector2d(grid.cols, grid.rows);
+    const double step = 0.5 * grid.cell_m;
+    for (const Eigen::Vector3f& p : scan.points) {
+        const Eigen::Vector3d q = p.cast<double>();
+        const Eigen::Vector3d d = q - scan.sensor;
+        const double horizontal = d.head<2>().norm();
+        if (horizontal < step) continue;
+        // Clip the ray's xy to the grid box, then walk it back from one cell before its return.
+        double t_enter = 0.0;
+        for (int axis = 0; axis < 2; ++axis) {
+            if (std::abs(d[axis]) < 1e-12) continue;
+            const double a = (lo[axis] - scan.sensor[axis]) / d[axis];
+            const double b = (hi[axis] - scan.sensor[axis]) / d[axis];
+            t_enter = std::max(t_enter, std::min(a, b));
+        }
+        const double t_stop = 1.0 - grid.cell_m / horizontal;
+        const double dt = step / horizontal;
+        for (double t = t_stop; t > t_enter; t -= dt) {
+            const Eigen::Vector3d x = scan.sensor + t * d;
+            const int cell = grid.CellOf(x.x(), x.y());
+            if (cell < 0) continue;
+            auto& l = lowest[static_cast<std::size_t>(cell)];
+            if (x.z() >= l[2]) continue;
+            l[2] = x.z();
+            if (l[2] < l[1]) std::swap(l[1], l[2]);
+            if (l[1] < l[0]) std::swap(l[0], l[1]);
+        }
+    }
+    std::vector<double> ceiling(lowest.size());
+    for (std::size_t k = 0; k < lowest.size(); ++k) ceiling[k] = lowest[k][2];
+    return ceiling;
+}
+
+}  // namespace soilvol::volume
