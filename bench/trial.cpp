@@ -3,6 +3,7 @@
 #include <random>
 
 #include "core/common/timer.hpp"
+#include "core/pipeline/registration.hpp"
 
 namespace soilvol::bench {
 
@@ -30,10 +31,23 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
     for (auto& c : corners) {
         c += setup.corner_noise_m * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
     }
+    std::vector<pipeline::EmptyScan> scans = {{empty.points, std::nullopt}};
+    for (int j = 1; j < setup.empty_scans; ++j) {
+        sim::SceneSpec turned = spec;
+        turned.sensor.azimuth_deg += 180.0;
+        turned.scan_seed = spec.scan_seed + static_cast<uint64_t>(j) * 7;
+        const sim::Scene other = sim::SimulateScene(turned);
+        scans.push_back({other.points, other.opening_corners_scan});
+    }
     RegisteredModel out{absl::UnknownError("not run"), empty.struck_capacity_m3, 0.0};
     Timer timer;
-    out.model = model::BuildContainerModel(empty.points, corners, model::ModelConfig{});
+    auto reg = pipeline::RegisterContainer(corners, scans, pipeline::RegistrationConfig{});
     out.register_ms = timer.Lap();
+    if (reg.ok()) {
+        out.model = std::move(reg->model);
+    } else {
+        out.model = reg.status();
+    }
     return out;
 }
 

@@ -19,6 +19,9 @@ struct Setup {
     sim::PoseJitter jitter{3.0, 0.05};  ///< the issue's "up to 3 deg, 5 cm"
     double corner_noise_m = 0.0;        ///< Gaussian error of the marked corners
     double perturbation_m = 0.02;       ///< soil surface perturbation amplitude
+    /// Empty scans the model is registered from; each after the first sees the container
+    /// turned half way round (the sensor's azimuth + 180 deg), its corners marked.
+    int empty_scans = 1;
 };
 
 /// The paper's time-of-flight sensor (4 cm noise, 0.5 deg), placed 2.5-3 m away so that each

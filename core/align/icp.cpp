@@ -30,9 +30,10 @@ struct Target {
     Cloud normals;  // unit, empty without smoothing
 };
 
-// The scan points near the model at its initial pose, voxel-averaged and smoothed.
+// The scan points near the model at pose `initial`, outside the contents' column, voxel-averaged
+// and smoothed among themselves: what the container holds never blends into its outside.
 Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
-                     const AlignConfig& config) {
+                     const AlignConfig& config, const ContentColumn* column) {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const auto& p : source) centre += p.cast<double>();
     centre /= static_cast<double>(std::max<std::size_t>(source.size(), 1));
@@ -40,10 +41,13 @@ Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial
     for (const auto& p : source) radius = std::max(radius, (p.cast<double>() - centre).norm());
     const Eigen::Vector3f c = (initial * centre).cast<float>();
     const auto r2 = static_cast<float>(std::pow(radius + config.crop_margin_m, 2));
+    const Pose to_container = initial.inverse();
     Cloud cropped;
     cropped.reserve(scan.size());
     for (const auto& p : scan) {
-        if ((p - c).squaredNorm() <= r2) cropped.push_back(p);
+        if ((p - c).squaredNorm() > r2) continue;
+        if (column != nullptr && column->Holds((to_container * p.cast<double>()))) continue;
+        cropped.push_back(p);
     }
     Cloud voxels = cloud::VoxelDownsample(cropped, config.target_voxel_m);
     if (config.smoothing_radius_m <= 0.0) return {std::move(voxels), {}};
@@ -116,16 +120,36 @@ Pose Exp(const Vector6d& xi) {
     return step;
 }
 
+// Figures at the final pose, fine distance: fitness, rmse and the pose covariance
+// rmse^2 H^-1 over the left perturbation (rotation, translation) in the scan frame.
+void Summarize(const Cloud& source, const Cloud& normals, const Target& target,
+               const cloud::KdTree& tree, const AlignConfig& config, double min_cos, int threads,
+               AlignResult& result) {
+    const Pose& T = result.T_scan_container;
+    const System sys = Linearize(source, normals, T, target, tree, config.max_correspondence_m,
+                                 config.ransac_outlier_rejection_m, min_cos, threads);
+    result.correspondences = sys.count;
+    result.fitness = static_cast<double>(sys.count) / static_cast<double>(source.size());
+    if (sys.count < 6) return;
+    result.rmse_m = std::sqrt(sys.sq_sum / static_cast<double>(sys.count));
+    result.covariance =
+        result.rmse_m * result.rmse_m * (sys.H + 1e-9 * Matrix6d::Identity()).inverse();
+    // Offset of the opening centre along its normal: d = n_c . (t + w x o).
+    const Eigen::Vector3d o = T.translation();
+    const Eigen::Vector3d nc = T.linear().col(2);
+    Vector6d grad;
+    grad << o.cross(nc), nc;
+    result.z_sigma_m = std::sqrt(std::max(0.0, grad.dot(result.covariance * grad)));
+}
+
 }  // namespace
 
 AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
-                  const Pose& initial_T_scan_container, const AlignConfig& config) {
+                  const Pose& initial_T_scan_container, const AlignConfig& config,
+                  const ContentColumn* column) {
     AlignResult result;
     result.T_scan_container = initial_T_scan_container;
-    const Target target = PrepareTarget(source, scan, initial_T_scan_container, config);
-    result.target_points = target.points.size();
-    if (target.points.empty() || source.empty()) return result;
-    const cloud::KdTree tree(target.points);
+    if (source.empty()) return result;
     const double min_cos = std::cos(config.max_normal_angle_deg * 3.14159265358979 / 180.0);
     const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();
     std::vector<double> stages;
@@ -134,7 +158,13 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
     }
     stages.push_back(config.max_correspondence_m);
     Pose& T = result.T_scan_container;
+    Target target;
     for (std::size_t s = 0; s < stages.size(); ++s) {
+        // Each stage crops the scan at the pose the last one found.
+        target = PrepareTarget(source, scan, T, config, column);
+        result.target_points = target.points.size();
+        if (target.points.empty()) return result;
+        const cloud::KdTree tree(target.points);
         const bool fine = s + 1 == stages.size();
         bool stage_converged = false;
         std::vector<Pose> history;
@@ -152,34 +182,36 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
                               Settled(history, config);
         }
         if (fine) result.converged = stage_converged;
-    }
-    // Figures at the final pose, fine distance.
-    const System sys = Linearize(source, normals, T, target, tree, config.max_correspondence_m,
-                                 config.ransac_outlier_rejection_m, min_cos, threads);
-    result.correspondences = sys.count;
-    result.fitness = static_cast<double>(sys.count) / static_cast<double>(source.size());
-    if (sys.count >= 6) {
-        result.rmse_m = std::sqrt(sys.sq_sum / static_cast<double>(sys.count));
-        // Offset of the opening centre along its normal: d = n_c . (t + w x o).
-        const Eigen::Vector3d o = T.translation();
-        const Eigen::Vector3d nc = T.linear().col(2);
-        Vector6d grad;
-        grad << o.cross(nc), nc;
-        const Matrix6d cov =
-            result.rmse_m * result.rmse_m * (sys.H + 1e-9 * Matrix6d::Identity()).inverse();
-        result.z_sigma_m = std::sqrt(std::max(0.0, grad.dot(cov * grad)));
+        if (fine) Summarize(source, normals, target, tree, config, min_cos, threads, result);
     }
     return result;
 }
 
 absl::Status CheckAlignment(const AlignResult& result, const AlignGate& gate) {
-    const bool bad = result.fitness < gate.min_fitness || result.rmse_m > gate.max_rmse_m ||
+    const double rot_sigma_deg =
+        std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
+                                    result.covariance.topLeftCorner<3, 3>())
+                                    .eigenvalues()
+                                    .maxCoeff())) *
+        180.0 / 3.14159265358979;
+    const double trans_sigma_m = std::sqrt(std::max(
+        0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(result.covariance.bottomRightCorner<3, 3>())
+                 .eigenvalues()
+                 .maxCoeff()));
+    const bool bad = result.correspondences < gate.min_correspondences ||
+                     result.fitness < gate.min_fitness || result.rmse_m > gate.max_rmse_m ||
+                     trans_sigma_m > gate.max_translation_sigma_m ||
+                     rot_sigma_deg > gate.max_rotation_sigma_deg ||
                      (gate.require_converged && !result.converged);
     if (!bad) return absl::OkStatus();
     return absl::FailedPreconditionError(absl::StrFormat(
-        "alignment rejected: fitness %.3f (minimum %.3f), rmse %.4f m (maximum %.4f m), %s after "
-        "%d iterations; is the container's outside visible and near its registered pose?",
-        result.fitness, gate.min_fitness, result.rmse_m, gate.max_rmse_m,
+        "alignment rejected: %d matched points (minimum %d), fitness %.3f (minimum %.3f), rmse "
+        "%.4f m (maximum %.4f m), pose 1-sigma %.4f m (maximum %.4f m) and %.2f deg (maximum "
+        "%.2f deg), %s after %d iterations; is the container's outside visible and near its "
+        "registered pose?",
+        result.correspondences, gate.min_correspondences, result.fitness, gate.min_fitness,
+        result.rmse_m, gate.max_rmse_m, trans_sigma_m, gate.max_translation_sigma_m,
+        rot_sigma_deg, gate.max_rotation_sigma_deg,
         result.converged ? "converged" : "not converged", result.iterations));
 }
 

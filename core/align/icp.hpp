@@ -3,6 +3,7 @@
 #include <cstddef>
 
 #include "absl/status/status.h"
+#include "core/common/polygon.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::align {
@@ -34,11 +35,27 @@ struct AlignConfig {
     int num_threads = 0;               ///< 0 = all cores
 };
 
-/// Refuses a volume from a bad alignment.
+/// Refuses a volume from a bad alignment. No share of matched points decides alone: a heap
+/// hides much of a container's outside from a sensor above it. The alignment must rest on
+/// enough matches that pin every direction of the pose; whether the pose agrees with the
+/// contents is judged after the volume (pipeline::EstimateVolume).
 struct AlignGate {
-    double min_fitness = 0.3;  ///< share of model points with a scan point within the fine distance
-    double max_rmse_m = 0.05;  ///< point-to-plane RMS of those correspondences
+    std::size_t min_correspondences = 40;  ///< model points with a scan point within the fine distance
+    double min_fitness = 0.05;  ///< share of those: below it the scan lost the container
+    double max_rmse_m = 0.05;   ///< point-to-plane RMS of the correspondences
+    double max_translation_sigma_m = 0.02;  ///< largest 1-sigma of the position from the fit
+    double max_rotation_sigma_deg = 1.0;    ///< largest 1-sigma of the orientation
     bool require_converged = true;
+};
+
+/// Where a container's contents can be, in its own frame: over the opening polygon and below
+/// `top_m`. Returns there are left out of an alignment's target.
+struct ContentColumn {
+    Polygon2d polygon;
+    double top_m = 0.05;
+    bool Holds(const Eigen::Vector3d& p) const {
+        return p.z() < top_m && polygon.Contains(p.head<2>());
+    }
 };
 
 struct AlignResult {
@@ -49,13 +66,17 @@ struct AlignResult {
     double rmse_m = 0.0;   ///< point-to-plane RMS of the correspondences
     std::size_t correspondences = 0;
     double z_sigma_m = 0.0;  ///< 1-sigma of the opening's offset along its normal, from the fit
+    /// Covariance of the pose [rad^2, m^2]: left perturbation (rotation, translation) in the
+    /// scan frame, rmse^2 times the inverse Gauss-Newton Hessian.
+    Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
     std::size_t target_points = 0;
 };
 
 /// Aligns `source` (container frame, with unit `normals`) to `scan` (scan frame), starting at
-/// `initial_T_scan_container`.
+/// `initial_T_scan_container`; scan returns in `column` (when given) are not container.
 AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
-                  const Pose& initial_T_scan_container, const AlignConfig& config);
+                  const Pose& initial_T_scan_container, const AlignConfig& config,
+                  const ContentColumn* column = nullptr);
 
 /// FailedPrecondition naming the figures when `result` does not pass `gate`.
 absl::Status CheckAlignment(const AlignResult& result, const AlignGate& gate);

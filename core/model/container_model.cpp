@@ -30,15 +30,6 @@ void SplitInsideOutside(const Cloud& points, const Opening& opening, const Model
     }
 }
 
-// Returns over the opening are the inside and the inner walls; soil covers them, so they stay
-// out of the alignment set. The test reads smoothed positions and no height: a cut at a height
-// near the rim would keep the rim returns that noise lifted and drop those it lowered, and the
-// alignment would sink by a share of the noise.
-bool InAlignmentSet(const Eigen::Vector3f& p, const Opening& opening, double above_m) {
-    return !(opening.polygon.Contains(p.head<2>().cast<double>()) &&
-             static_cast<double>(p.z()) < above_m);
-}
-
 // The smoothed empty surface outside the opening's column (or above the opening): rim, outer
 // walls, linkage, high sides. No slope decides it: a wall inside the column, at any angle, is
 // the empty surface; a wall on the column's boundary lies half outside and so marks the returns
@@ -72,7 +63,48 @@ double LowestZ(const Cloud& points) {
     return QuantileInPlace(z, 0.002);
 }
 
+// The grid of the model's own figures: the automatic cell for the inside's density.
+double ModelCell(const ContainerModel& model, const ModelConfig& config) {
+    return config.heightmap.cell_m > 0.0
+               ? config.heightmap.cell_m
+               : volume::AutomaticCellSize(model.inside.empty() ? 1000 : model.inside.size(),
+                                           model.opening.polygon, config.heightmap);
+}
+
+// The noise of the empty scan (robust residuals of a first surface fit over the opening), and
+// the radii it sets: a mean over 2 sigmas keeps most of a point's noise, one over 3 a third.
+absl::Status MeasureNoise(const Cloud& points, const ModelConfig& config, ContainerModel& model) {
+    Cloud inside, outside;
+    SplitInsideOutside(points, model.opening, config, inside, outside);
+    model.outside_points = outside.size();
+    if (inside.size() < config.min_inside_points) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "only ", inside.size(), " points of the empty scan lie inside the opening (need ",
+            config.min_inside_points, "): check the corners and that the inside is visible"));
+    }
+    const double cell_m =
+        config.heightmap.cell_m > 0.0
+            ? config.heightmap.cell_m
+            : volume::AutomaticCellSize(inside.size(), model.opening.polygon, config.heightmap);
+    SOILVOL_ASSIGN_OR_RETURN(
+        const volume::SurfaceMap rough,
+        volume::EstimateSurface(volume::MakeGrid(model.opening.polygon, cell_m), inside, {},
+                                config.heightmap.surface));
+    model.noise_sigma_m = rough.noise_sigma_m;
+    model.smoothing_radius_m =
+        std::max(config.smoothing_radius_m, config.smoothing_sigmas * rough.noise_sigma_m);
+    // Noise sigmas, plus half a voxel: the structure is kept as voxel centroids.
+    model.structure_radius_m =
+        std::clamp(config.structure_sigmas * rough.noise_sigma_m + 0.5 * config.smoothing_voxel_m,
+                   config.min_structure_radius_m, config.max_structure_radius_m);
+    return absl::OkStatus();
+}
+
 }  // namespace
+
+align::ContentColumn ContentColumnOf(const ContainerModel& model) {
+    return {model.opening.polygon, model.column_top_m};
+}
 
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points) {
     if (model.structure.empty() || model.structure_radius_m <= 0.0) return points;
@@ -93,92 +125,104 @@ double HeapVolume(const Polygon2d& opening, double slope) {
     return slope * opening.DistanceIntegral();
 }
 
-absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
-                                                   const ModelConfig& config) {
-    ContainerModel model;
-    const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess);
-    model.scan_points = pre.points.size();
-    SOILVOL_ASSIGN_OR_RETURN(model.opening, MakeOpening(corners, pre.points, config.opening));
-    const Cloud points = ToContainerFrame(pre.points, model.opening.T_scan_container);
+namespace {
+
+// The model's alignment set (Sec. 3.3): the scan smoothed as the pipeline smooths each new scan
+// before ICP (AlignConfig), so that a mean near the rim sees the same surfaces in both; then
+// selected and thinned.
+void MakeAlignmentSet(const Cloud& points, const ModelConfig& config, ContainerModel& model) {
+    const align::ContentColumn column = ContentColumnOf(model);
     Cloud outside;
-    SplitInsideOutside(points, model.opening, config, model.inside, outside);
-    model.outside_points = outside.size();
-    if (model.inside.size() < config.min_inside_points) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            "only ", model.inside.size(), " points of the empty scan lie inside the opening (need ",
-            config.min_inside_points, "): check the corners and that the inside is visible"));
+    for (const auto& p : points) {
+        if (!column.Holds(p.cast<double>())) outside.push_back(p);
     }
-    // The noise sets how widely surfaces are averaged: a mean over a radius of 2 sigmas keeps
-    // most of a point's noise, one over 3 sigmas a third of it.
-    const double cell_m = config.heightmap.cell_m > 0.0
-                              ? config.heightmap.cell_m
-                              : volume::AutomaticCellSize(model.inside.size(),
-                                                          model.opening.polygon, config.heightmap);
-    const volume::Grid grid = volume::MakeGrid(model.opening.polygon, cell_m);
-    SOILVOL_ASSIGN_OR_RETURN(
-        const volume::SurfaceMap rough,
-        volume::EstimateSurface(grid, model.inside, {}, config.heightmap.surface));
-    model.smoothing_radius_m =
-        std::max(config.smoothing_radius_m, config.smoothing_sigmas * rough.noise_sigma_m);
-    // The whole scan smoothed as the pipeline smooths each new scan before ICP (AlignConfig),
-    // so that a mean near the rim sees the same surfaces in both; then selected and thinned.
     const cloud::LocalSurface surface = cloud::SmoothLocalSurface(
-        cloud::VoxelDownsample(points, config.smoothing_voxel_m), model.smoothing_radius_m);
-    Cloud selected, selected_normals;
-    for (std::size_t i = 0; i < surface.points.size(); ++i) {
-        if (!InAlignmentSet(surface.points[i], model.opening, config.inside_above_m)) continue;
-        selected.push_back(surface.points[i]);
-        selected_normals.push_back(surface.normals[i]);
-    }
+        cloud::VoxelDownsample(outside, config.smoothing_voxel_m), model.smoothing_radius_m);
+    const Cloud& selected = surface.points;
+    const Cloud& selected_normals = surface.normals;
     const cloud::VoxelGrid thin(selected, config.alignment_voxel_m);
     for (std::size_t v = 0; v < thin.NumVoxels(); ++v) {
         const uint32_t i = thin.Order()[thin.Range(v).first];
         model.alignment_points.push_back(selected[i]);
         model.alignment_normals.push_back(selected_normals[i]);
     }
+}
+
+// One empty scan's share of the model: its inside, its structure, its cavity with ray weights.
+absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
+                       const ModelConfig& config, ContainerModel& model) {
+    Cloud inside, outside;
+    SplitInsideOutside(points, model.opening, config, inside, outside);
+    const Cloud structure =
+        StructurePoints(points, model.opening, config,
+                        std::max(model.structure_radius_m, config.smoothing_radius_m),
+                        -LowestZ(inside.empty() ? points : inside));
+    model.structure.insert(model.structure.end(), structure.begin(), structure.end());
+    WeightedCloud cavity = RemoveStructure(model, WeightedCloud{inside, {}, sensor});
+    if (cavity.points.size() < config.min_inside_points) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "only ", cavity.points.size(), " points of empty scan ", model.cavity.size() + 1,
+            " lie inside the container clear of its rim and walls (need ",
+            config.min_inside_points, "): the inside must be visible"));
+    }
+    cavity.weights = cloud::RayWeights(cavity.points, sensor, model.noise_sigma_m,
+                                       config.heightmap.ray_weights);
+    model.inside.insert(model.inside.end(), inside.begin(), inside.end());
+    model.cavity.push_back(std::move(cavity));
+    return absl::OkStatus();
+}
+
+// Sec. 3.2: the empty surface from every empty scan; the struck capacity is the volume between
+// it and the opening.
+absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model) {
+    const volume::Grid grid = volume::MakeGrid(model.opening.polygon, ModelCell(model, config));
+    SOILVOL_ASSIGN_OR_RETURN(const volume::EmptySurface empty,
+                             volume::EstimateEmptySurface(grid, model.cavity, config.heightmap));
+    model.observed_share = empty.area_m2 > 0.0 ? empty.observed_area_m2 / empty.area_m2 : 0.0;
+    model.struck_capacity_m3 = 0.0;
+    double lowest = 0.0;
+    for (std::size_t k = 0; k < grid.weight.size(); ++k) {
+        if (grid.weight[k] <= 0.0) continue;
+        model.struck_capacity_m3 += grid.weight[k] * std::max(0.0, -empty.map.height[k]);
+        lowest = std::min(lowest, empty.map.height[k]);
+    }
+    model.depth_m = -lowest;
+    model.heaped_capacity_sae_m3 =
+        model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 1.0);
+    model.heaped_capacity_iso_m3 =
+        model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 0.5);
+    return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
+                                                   const ModelConfig& config) {
+    ContainerModel model;
+    const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess);
+    model.scan_points = pre.points.size();
+    SOILVOL_ASSIGN_OR_RETURN(model.opening, MakeOpening(corners, pre.points, config.opening));
+    model.column_top_m = config.inside_above_m;
+    const Cloud points = ToContainerFrame(pre.points, model.opening.T_scan_container);
+    SOILVOL_RETURN_IF_ERROR(MeasureNoise(points, config, model));
+    MakeAlignmentSet(points, config, model);
     if (model.alignment_points.size() < config.min_alignment_points) {
         return absl::FailedPreconditionError(absl::StrCat(
             "only ", model.alignment_points.size(), " alignment points outside the opening (need ",
             config.min_alignment_points, "): the container's outside must be visible to align it"));
     }
-    // Sec. 3.2: the empty surface; struck capacity is the volume between it and the opening.
-    // Noise sigmas, plus half a voxel: the structure is kept as voxel centroids.
-    model.structure_radius_m =
-        std::clamp(config.structure_sigmas * rough.noise_sigma_m + 0.5 * config.smoothing_voxel_m,
-                   config.min_structure_radius_m, config.max_structure_radius_m);
-    model.structure =
-        StructurePoints(points, model.opening, config,
-                        std::max(model.structure_radius_m, config.smoothing_radius_m),
-                        -LowestZ(model.inside));
-    model.cavity = RemoveStructure(model, WeightedCloud{model.inside, {}});
-    if (model.cavity.points.size() < config.min_inside_points) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            "only ", model.cavity.points.size(),
-            " points of the empty scan lie inside the container clear of its rim and walls (need ",
-            config.min_inside_points, "): the inside must be visible"));
-    }
     const Eigen::Vector3d sensor = model.opening.T_scan_container.inverse().translation();
-    model.cavity.weights = cloud::RayWeights(model.cavity.points, sensor, rough.noise_sigma_m,
-                                             config.heightmap.ray_weights);
-    model.cavity.sensor = sensor;
-    SOILVOL_ASSIGN_OR_RETURN(const volume::EmptySurface empty_surface,
-                             volume::EstimateEmptySurface(grid, model.cavity, config.heightmap));
-    const volume::SurfaceMap& empty = empty_surface.map;
-    model.observed_share =
-        empty_surface.area_m2 > 0.0 ? empty_surface.observed_area_m2 / empty_surface.area_m2 : 0.0;
-    double lowest = 0.0;
-    for (std::size_t k = 0; k < grid.weight.size(); ++k) {
-        if (grid.weight[k] <= 0.0) continue;
-        model.struck_capacity_m3 += grid.weight[k] * std::max(0.0, -empty.height[k]);
-        lowest = std::min(lowest, empty.height[k]);
-    }
-    model.depth_m = -lowest;
-    model.noise_sigma_m = empty.noise_sigma_m;
-    model.heaped_capacity_sae_m3 =
-        model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 1.0);
-    model.heaped_capacity_iso_m3 =
-        model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 0.5);
+    SOILVOL_RETURN_IF_ERROR(AddCavity(points, sensor, config, model));
+    SOILVOL_RETURN_IF_ERROR(FinishSurface(config, model));
     return model;
+}
+
+absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
+                          const ModelConfig& config, ContainerModel& model) {
+    const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess);
+    const Cloud points = ToContainerFrame(pre.points, T_scan_container);
+    SOILVOL_RETURN_IF_ERROR(AddCavity(points, T_scan_container.inverse().translation(), config, model));
+    return FinishSurface(config, model);
 }
 
 }  // namespace soilvol::model

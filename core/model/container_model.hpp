@@ -3,6 +3,7 @@
 #include <cstddef>
 
 #include "absl/status/statusor.h"
+#include "core/align/icp.hpp"
 #include "core/cloud/preprocess.hpp"
 #include "core/common/types.hpp"
 #include "core/model/opening.hpp"
@@ -39,9 +40,11 @@ struct ModelConfig {
 struct ContainerModel {
     Opening opening;  ///< T_scan_container: the container in the empty scan's frame
     Cloud inside;           ///< empty points over the opening
-    WeightedCloud cavity;   ///< inside points clear of the structure, with ray weights
+    /// Per empty scan: its inside points clear of the structure, with ray weights and sensor.
+    std::vector<WeightedCloud> cavity;
     Cloud structure;        ///< smoothed empty surface outside the opening's column
     double structure_radius_m = 0.0;  ///< returns this near the structure are not contents
+    double column_top_m = 0.05;       ///< contents: over the opening, below this height
     double smoothing_radius_m = 0.0;  ///< of the alignment set; each scan is smoothed alike
     Cloud alignment_points;               ///< outside points used for ICP
     Cloud alignment_normals;              ///< unit normals of alignment_points
@@ -60,6 +63,16 @@ struct ContainerModel {
 /// few points fall inside or outside the opening.
 absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
                                                    const ModelConfig& config);
+
+/// Adds one more scan of the empty container (scan frame) in which the container stands at
+/// `T_scan_container` (found by aligning the model to it): its returns fill what earlier scans
+/// did not see, and the empty surface and capacities are computed anew. FailedPrecondition when
+/// too few of its points lie inside; the model is then left as it was.
+absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
+                          const ModelConfig& config, ContainerModel& model);
+
+/// Where the model's contents can be (alignments leave returns there out).
+align::ContentColumn ContentColumnOf(const ContainerModel& model);
 
 /// The points of `points` (container frame) farther than the model's structure radius from its
 /// structure, with their weights.

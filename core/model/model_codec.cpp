@@ -14,6 +14,7 @@ namespace {
 constexpr char kMagic[8] = {'S', 'O', 'I', 'L', 'V', 'O', 'L', 'M'};
 constexpr std::size_t kHeaderBytes = sizeof(kMagic) + 4 + 4 + 8;
 constexpr std::size_t kMaxPolygonVertices = 1024;
+constexpr uint32_t kMaxEmptyScans = 64;
 
 // Little-endian writer (the machines we target are little-endian; the layout is fixed anyway).
 class Writer {
@@ -130,14 +131,18 @@ std::string EncodePayload(const ContainerModel& model) {
     }
     w.Put<double>(model.opening.nonplanarity_m);
     w.Put<double>(model.opening.area_m2);
-    for (const Cloud* cloud : {&model.inside, &model.cavity.points, &model.structure,
-                               &model.alignment_points, &model.alignment_normals}) {
+    for (const Cloud* cloud : {&model.inside, &model.structure, &model.alignment_points,
+                               &model.alignment_normals}) {
         w.PutCloud(*cloud);
     }
-    w.PutFloats(model.cavity.weights);
-    for (int i = 0; i < 3; ++i) w.Put<double>(model.cavity.sensor[i]);
+    w.Put<uint32_t>(static_cast<uint32_t>(model.cavity.size()));
+    for (const WeightedCloud& c : model.cavity) {
+        w.PutCloud(c.points);
+        w.PutFloats(c.weights);
+        for (int i = 0; i < 3; ++i) w.Put<double>(c.sensor[i]);
+    }
     for (const double value :
-         {model.structure_radius_m, model.smoothing_radius_m, model.observed_share, model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
+         {model.structure_radius_m, model.smoothing_radius_m, model.column_top_m, model.observed_share, model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
           model.heaped_capacity_iso_m3, model.noise_sigma_m}) {
         w.Put<double>(value);
     }
@@ -161,20 +166,25 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
     model.opening.nonplanarity_m = r.GetFinite("opening nonplanarity");
     model.opening.area_m2 = r.GetFinite("opening area");
     model.inside = r.GetCloud("inside");
-    model.cavity.points = r.GetCloud("cavity");
     model.structure = r.GetCloud("structure");
     model.alignment_points = r.GetCloud("alignment points");
     model.alignment_normals = r.GetCloud("alignment normals");
     if (model.alignment_points.size() != model.alignment_normals.size()) {
         r.Fail("alignment points and normals differ in count");
     }
-    model.cavity.weights = r.GetFloats("cavity weights");
-    if (model.cavity.weights.size() != model.cavity.points.size()) {
-        r.Fail("cavity points and weights differ in count");
+    const uint32_t scans = r.Get<uint32_t>();
+    if (scans < 1 || scans > kMaxEmptyScans) r.Fail("empty scan count is invalid");
+    for (uint32_t j = 0; r.ok() && j < scans; ++j) {
+        WeightedCloud c;
+        c.points = r.GetCloud("cavity");
+        c.weights = r.GetFloats("cavity weights");
+        if (c.weights.size() != c.points.size()) r.Fail("cavity points and weights differ in count");
+        for (int i = 0; i < 3; ++i) c.sensor[i] = r.GetFinite("cavity sensor");
+        model.cavity.push_back(std::move(c));
     }
-    for (int i = 0; i < 3; ++i) model.cavity.sensor[i] = r.GetFinite("cavity sensor");
     model.structure_radius_m = r.GetFinite("structure radius");
     model.smoothing_radius_m = r.GetFinite("smoothing radius");
+    model.column_top_m = r.GetFinite("column top");
     model.observed_share = r.GetFinite("observed share");
     model.depth_m = r.GetFinite("depth");
     model.struck_capacity_m3 = r.GetFinite("struck capacity");

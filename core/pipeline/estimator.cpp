@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/status/status.h"
+#include "absl/strings/str_format.h"
 #include "core/cloud/ray_weights.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
@@ -32,6 +33,18 @@ absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& mode
     return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap);
 }
 
+// The pose is wrong when the scan lies below the empty container over much of the opening.
+absl::Status CheckContents(const volume::VolumeResult& volume, const EstimateConfig& config) {
+    const int both = volume.cells.both_measured;
+    if (both == 0 || config.method == volume::Method::kPaper) return absl::OkStatus();
+    const double share = static_cast<double>(volume.cells.below_empty) / both;
+    if (share <= config.max_below_empty_share) return absl::OkStatus();
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "alignment rejected: the scan lies below the empty container in %.0f%% of the cells "
+        "(%d of %d; at most %.0f%%): the container is not where the alignment put it",
+        100.0 * share, volume.cells.below_empty, both, 100.0 * config.max_below_empty_share));
+}
+
 }  // namespace
 
 absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
@@ -54,8 +67,9 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
     align::AlignConfig align = config.align;
     align.smoothing_radius_m = std::max(align.smoothing_radius_m, model.smoothing_radius_m);
+    const align::ContentColumn column = model::ContentColumnOf(model);
     estimate.alignment = align::Align(model.alignment_points, model.alignment_normals, pre.points,
-                                      initial, align);
+                                      initial, align, &column);
     estimate.timings.align_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
     // Sec. 3.4: grid and integrate in the container frame.
@@ -63,6 +77,7 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     SOILVOL_ASSIGN_OR_RETURN(estimate.volume,
                              Integrate(model, aligned, estimate.alignment.T_scan_container, config));
     estimate.timings.volume_ms = timer.Lap();
+    SOILVOL_RETURN_IF_ERROR(CheckContents(estimate.volume, config));
     estimate.volume_m3 = estimate.volume.volume_m3;
     const double align_m3 = model.opening.area_m2 * estimate.alignment.z_sigma_m;
     estimate.uncertainty_m3 = std::hypot(estimate.volume.uncertainty_m3, align_m3);

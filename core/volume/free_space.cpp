@@ -8,7 +8,7 @@
 
 namespace soilvol::volume {
 
-std::vector<double> FreeSpaceCeiling(const Grid& grid, const WeightedCloud& scan) {
+std::vector<double> FreeSpaceCeiling(const Grid& grid, const std::vector<WeightedCloud>& scans) {
     constexpr double kInf = std::numeric_limits<double>::infinity();
     // The third lowest ray of each cell: a stray return behind a surface does not lower it.
     std::vector<std::array<double, 3>> lowest(static_cast<std::size_t>(grid.NumCells()),
@@ -16,6 +16,7 @@ std::vector<double> FreeSpaceCeiling(const Grid& grid, const WeightedCloud& scan
     const Eigen::Vector2d lo = grid.origin;
     const Eigen::Vector2d hi = grid.origin + grid.cell_m * Eigen::Vector2d(grid.cols, grid.rows);
     const double step = 0.5 * grid.cell_m;
+    for (const WeightedCloud& scan : scans) {
     for (const Eigen::Vector3f& p : scan.points) {
         const Eigen::Vector3d q = p.cast<double>();
         const Eigen::Vector3d d = q - scan.sensor;
@@ -41,6 +42,7 @@ std::vector<double> FreeSpaceCeiling(const Grid& grid, const WeightedCloud& scan
             if (l[2] < l[1]) std::swap(l[1], l[2]);
             if (l[1] < l[0]) std::swap(l[0], l[1]);
         }
+    }
     }
     std::vector<double> ceiling(lowest.size());
     for (std::size_t k = 0; k < lowest.size(); ++k) ceiling[k] = lowest[k][2];

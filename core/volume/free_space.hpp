@@ -12,6 +12,6 @@ namespace soilvol::volume {
 /// third lowest is taken, so that a stray return does not count).
 /// +inf where no ray passed (outside the opening too). Rays are followed in steps of half a
 /// cell, up to one cell short of their return (which lies on the surface).
-std::vector<double> FreeSpaceCeiling(const Grid& grid, const WeightedCloud& scan);
+std::vector<double> FreeSpaceCeiling(const Grid& grid, const std::vector<WeightedCloud>& scans);
 
 }  // namespace soilvol::volume

@@ -121,13 +121,19 @@ WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, 
     return column;
 }
 
-absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid, const WeightedCloud& empty,
+absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
+                                                  const std::vector<WeightedCloud>& empty,
                                                   const HeightmapConfig& config) {
+    WeightedCloud all;
+    for (const WeightedCloud& scan : empty) {
+        all.points.insert(all.points.end(), scan.points.begin(), scan.points.end());
+        all.weights.insert(all.weights.end(), scan.weights.begin(), scan.weights.end());
+    }
     EmptySurface out;
     SOILVOL_ASSIGN_OR_RETURN(out.map,
-                             EstimateSurface(grid, empty.points, empty.weights, config.surface));
+                             EstimateSurface(grid, all.points, all.weights, config.surface));
     out.unobserved_sigma_m =
-        BoundUnobservedEmpty(grid, FreeSpaceCeiling(grid, empty), empty.points, out.map);
+        BoundUnobservedEmpty(grid, FreeSpaceCeiling(grid, empty), all.points, out.map);
     for (std::size_t k = 0; k < out.map.height.size(); ++k) {
         if (grid.weight[k] <= 0.0) continue;
         out.area_m2 += grid.weight[k];
@@ -136,11 +142,14 @@ absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid, const Weight
     return out;
 }
 
-absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
+absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
                                              const WeightedCloud& scan, const Polygon2d& opening,
                                              const HeightmapConfig& config) {
-    const WeightedCloud column =
-        SelectColumn(scan, opening, LowQuantileZ(empty_inside.points, 0.005), config);
+    double empty_min_z = 0.0;
+    for (const WeightedCloud& e : empty_inside) {
+        empty_min_z = std::min(empty_min_z, LowQuantileZ(e.points, 0.005));
+    }
+    const WeightedCloud column = SelectColumn(scan, opening, empty_min_z, config);
     const double cell_m =
         config.cell_m > 0.0 ? config.cell_m
                             : AutomaticCellSize(CountInside(column.points, opening), opening, config);
@@ -154,7 +163,7 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
     SOILVOL_ASSIGN_OR_RETURN(
         SurfaceMap soil, EstimateSurface(grid, column.points, column.weights, config.surface));
     CapInterpolatedHeap(grid, opening, config.max_heap_slope, soil);
-    BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, column), empty, soil);
+    BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, {column}), empty, soil);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     result.soil_height_m.assign(num_cells, kNaN);
     result.state.assign(num_cells, CellState::kOutside);
@@ -180,7 +189,12 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
             result.state[k] = CellState::kInterpolated;
             ++result.cells.interpolated;
         }
-        if (h > 2.0 * std::sqrt(soil.variance[k] + empty.variance[k])) ++result.cells.with_soil;
+        const double cell_sigma = std::sqrt(soil.variance[k] + empty.variance[k]);
+        if (h > 2.0 * cell_sigma) ++result.cells.with_soil;
+        if (soil.support[k] > 0 && empty.support[k] > 0) {
+            ++result.cells.both_measured;
+            if (h < -std::max(3.0 * cell_sigma, 2.0 * soil.noise_sigma_m)) ++result.cells.below_empty;
+        }
     }
     result.volume_m3 = std::max(0.0, result.raw_volume_m3);
     result.uncertainty_m3 = std::hypot(std::sqrt(variance), unobserved);

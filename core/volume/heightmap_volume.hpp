@@ -43,13 +43,14 @@ struct EmptySurface {
 };
 
 /// FailedPrecondition when no cell of `empty` (container frame) can be fitted.
-absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid, const WeightedCloud& empty,
+absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
+                                                  const std::vector<WeightedCloud>& empty,
                                                   const HeightmapConfig& config);
 
 /// Soil volume between the empty surface (points of the empty container's inside) and the
 /// scan's surface, both in the container frame with ray weights. FailedPrecondition when either
 /// surface has no measurable cell.
-absl::StatusOr<VolumeResult> HeightmapVolume(const WeightedCloud& empty_inside,
+absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
                                              const WeightedCloud& scan, const Polygon2d& opening,
                                              const HeightmapConfig& config);
 
