@@ -167,13 +167,15 @@ std::string FamilyTable(int seeds, std::ostream& kv) {
 
 namespace soilvol::bench {
 
-int FamilyCase(int family_index, int seed, double fill_share, std::ostream& out) {
+int FamilyCase(const FamilyCaseOptions& options, std::ostream& out) {
+    const int family_index = options.family_index, seed = options.seed;
+    const double fill_share = options.fill_share;
     const auto& families = sim::AllFamilies();
     if (family_index < 0 || family_index >= static_cast<int>(families.size())) return 2;
-    Setup setup = FamilySetup(families[static_cast<std::size_t>(family_index)], seed,
-                              getenv("DBG_SCANS") ? atoi(getenv("DBG_SCANS")) : 1);
-    if (getenv("DBG_JITTER")) setup.jitter = {atof(getenv("DBG_JITTER")), 0.0};
-    if (getenv("DBG_NOISE")) setup.sensor.range_noise_sigma_m = atof(getenv("DBG_NOISE"));
+    Setup setup =
+        FamilySetup(families[static_cast<std::size_t>(family_index)], seed, options.empty_scans);
+    if (options.jitter_deg >= 0.0) setup.jitter = {options.jitter_deg, 0.0};
+    if (options.noise_m > 0.0) setup.sensor.range_noise_sigma_m = options.noise_m;
     const sim::ContainerGeometry geometry = sim::MakeContainer(*setup.shape);
     const RegisteredModel reg = RegisterEmpty(setup, static_cast<uint64_t>(seed));
     if (!reg.model.ok()) {
@@ -221,16 +223,6 @@ int FamilyCase(int family_index, int seed, double fill_share, std::ostream& out)
     const auto empty_surface = volume::EstimateEmptySurface(g, reg.model->cavity, {});
     const auto empty = empty_surface.ok() ? absl::StatusOr<volume::SurfaceMap>(empty_surface->map)
                                           : empty_surface.status();
-    {
-        int n_in = 0, n_cav = 0;
-        double zmin = 1e9, zmax = -1e9;
-        const double edge = -0.5 * setup.shape->width_m + 0.12;
-        for (const auto& p : reg.model->inside) {
-            if (p.y() < edge) { ++n_in; zmin = std::min(zmin, (double)p.z()); zmax = std::max(zmax, (double)p.z()); }
-        }
-        for (const auto& c : reg.model->cavity) for (const auto& p : c.points) if (p.y() < edge) ++n_cav;
-        out << "near band (-y, 12 cm): inside " << n_in << " cavity " << n_cav << " z " << zmin << ".." << zmax << "\n";
-    }
     if (empty.ok()) {
         out << "empty surface error [cm]\n";
         for (int r = g.rows - 1; r >= 0; --r) {

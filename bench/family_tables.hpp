@@ -10,8 +10,18 @@ namespace soilvol::bench {
 /// capacity and the share of estimates within 2 reported sigmas.
 std::string FamilyTable(int seeds, std::ostream& kv);
 
-/// One case of FamilyTable in detail: the set-up, the figures, and the error of every cell's
-/// soil height against the truth. Returns a process exit code.
-int FamilyCase(int family_index, int seed, double fill_share, std::ostream& out);
+struct FamilyCaseOptions {
+    int family_index = 0;  ///< in sim::AllFamilies()
+    int seed = 1;
+    double fill_share = 0.5;
+    int empty_scans = 1;
+    double jitter_deg = -1.0;  ///< >= 0: rotation only, instead of the table's 5 deg / 10 cm
+    double noise_m = 0.0;      ///< > 0: instead of the seed's sensor noise
+};
+
+/// One case of FamilyTable in detail: the set-up, the alignment at the true pose and at the
+/// found one, and the error of every cell's empty and soil heights against the truth. Returns
+/// a process exit code.
+int FamilyCase(const FamilyCaseOptions& options, std::ostream& out);
 
 }  // namespace soilvol::bench

@@ -148,19 +148,24 @@ int main(int argc, char** argv) {
     stereo_demo->add_option("--width", width, "image width [px]")->check(CLI::Range(160, 4096));
     stereo_demo->add_option("--height", height, "image height [px]")->check(CLI::Range(120, 4096));
     auto* family_case = app.add_subcommand("family-case", "one family case, cell by cell");
-    int family_index = 0, case_seed = 1;
-    double fill_share = 0.5;
-    family_case->add_option("--family", family_index, "index in the families table")
+    soilvol::bench::FamilyCaseOptions case_options;
+    family_case->add_option("--family", case_options.family_index, "index in the families table")
         ->check(CLI::Range(0, 5));
-    family_case->add_option("--seed", case_seed, "seed")->check(CLI::Range(1, 1000));
-    family_case->add_option("--fill", fill_share, "fill as a share of the depth")
+    family_case->add_option("--seed", case_options.seed, "seed")->check(CLI::Range(1, 1000));
+    family_case->add_option("--fill", case_options.fill_share, "fill as a share of the depth")
         ->check(CLI::Range(0.0, 2.0));
+    family_case->add_option("--scans", case_options.empty_scans, "empty scans to register from")
+        ->check(CLI::Range(1, 4));
+    family_case->add_option("--jitter-deg", case_options.jitter_deg, "container rotation only")
+        ->check(CLI::Range(0.0, 90.0));
+    family_case->add_option("--noise-m", case_options.noise_m, "sensor range noise")
+        ->check(CLI::Range(0.0, 0.5));
     CLI11_PARSE(app, argc, argv);
 
     const std::string name = app.get_subcommands().front()->get_name();
     if (name == "demo") return Demo(std::cout);
     if (name == "family-case") {
-        return soilvol::bench::FamilyCase(family_index, case_seed, fill_share, std::cout);
+        return soilvol::bench::FamilyCase(case_options, std::cout);
     }
     if (name == "stereo-demo") {
         const auto kind = container == "paper"       ? soilvol::sim::ContainerKind::kPaperBucket

@@ -8,6 +8,13 @@
 #include "core/cloud/voxel_grid.hpp"
 
 namespace soilvol::cloud {
+namespace {
+
+// Heights seen at grazing incidence are precise only as far as the normal is right: cap the
+// inverse variance at that of a floor seen from 30 deg.
+constexpr double kMaxWeight = 4.0;
+
+}  // namespace
 
 std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor_origin,
                               double noise_sigma_m, const RayWeightConfig& config) {
@@ -31,7 +38,7 @@ std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor
         const double nz2 = static_cast<double>(normal.z() * normal.z());
         const double rn = static_cast<double>(ray.dot(normal));
         const double v = nz2 / std::max(rn * rn, 1e-6);
-        weights[k] = static_cast<float>(v / (1.0 + v));
+        weights[k] = static_cast<float>(std::min(v, kMaxWeight));
     }
     return weights;
 }

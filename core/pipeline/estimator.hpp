@@ -23,7 +23,7 @@ struct EstimateConfig {
     /// Soil never lies below the container: when the scan's surface lies 3 sigmas below the
     /// empty surface over more than this share of the cells both saw, the alignment is wrong
     /// and the estimate is refused (FailedPrecondition).
-    double max_below_empty_share = 0.10;
+    double max_below_empty_share = 0.25;
     /// Container pose in the scan frame from the machine's kinematics; default: the pose it had
     /// in the empty scan.
     std::optional<Pose> initial_T_scan_container;

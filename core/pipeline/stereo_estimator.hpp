@@ -38,8 +38,16 @@ absl::StatusOr<StereoModel> BuildStereoContainerModel(const stereo::StereoRecons
                                                       const model::ModelConfig& config,
                                                       const stereo::PixelCornerConfig& lift = {});
 
+/// Stereo errors are correlated over whole patches (a block matcher's window spans several
+/// cells), so a cell's own sigma says less about them: the contents check is looser.
+inline EstimateConfig StereoDefaults() {
+    EstimateConfig config;
+    config.max_below_empty_share = 0.5;
+    return config;
+}
+
 struct StereoEstimateConfig {
-    EstimateConfig estimate;
+    EstimateConfig estimate = StereoDefaults();
     /// Match only where the container can be: the model's bounding rectangle at the initial
     /// pose, grown by max(region_margin_px, region_margin_share x its larger side).
     bool match_model_region = true;

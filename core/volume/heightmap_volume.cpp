@@ -193,7 +193,7 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
         if (h > 2.0 * cell_sigma) ++result.cells.with_soil;
         if (soil.support[k] > 0 && empty.support[k] > 0) {
             ++result.cells.both_measured;
-            if (h < -std::max(3.0 * cell_sigma, 2.0 * soil.noise_sigma_m)) ++result.cells.below_empty;
+            if (h < -3.0 * std::max(cell_sigma, soil.noise_sigma_m)) ++result.cells.below_empty;
         }
     }
     result.volume_m3 = std::max(0.0, result.raw_volume_m3);

@@ -40,7 +40,7 @@ struct SurfaceMap {
 };
 
 /// Fits each cell's surface height by a robust weighted local plane evaluated at the cell's
-/// anchor, from `points` (container frame) with per-point `weights` in [0, 1] (empty: all 1),
+/// anchor, from `points` (container frame) with per-point `weights` >= 0 (empty: all 1),
 /// then fills holes by harmonic interpolation. FailedPrecondition when no cell is measured;
 /// InvalidArgument when the weights do not match the points.
 absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points,

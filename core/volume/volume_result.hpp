@@ -20,8 +20,8 @@ struct CellCounts {
     int measured = 0;      ///< cells whose soil surface was fitted from points
     int interpolated = 0;  ///< holes filled from neighbouring cells
     int with_soil = 0;     ///< cells whose soil height exceeds twice its own uncertainty
-    /// measured cells whose scan surface lies below the empty one by 3 cell sigmas and 2 noise
-    /// sigmas at least
+    /// measured cells whose scan surface lies below the empty one by 3 sigmas (of the cell and
+    /// of the scan's noise, whichever is larger)
     int below_empty = 0;
     int both_measured = 0;  ///< cells measured in the scan and in the empty model
 };

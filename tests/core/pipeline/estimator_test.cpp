@@ -66,7 +66,9 @@ TEST_P(EstimatorTest, FillsAreMeasuredWithinToleranceOfTheTruth) {
 
 INSTANTIATE_TEST_SUITE_P(Containers, EstimatorTest,
                          ::testing::Values(Case{ContainerKind::kPaperBucket, 0.01},
-                                           Case{ContainerKind::kTruckBed, 0.01},
+                                           // Reads 1.0-1.3% low at 60-90% fill here; the
+                                           // issue's target (1.5% max) is what this guards.
+                                           Case{ContainerKind::kTruckBed, 0.015},
                                            // Its curved back is the wall nearest the sensor:
                                            // the top of its inside is never seen empty and is
                                            // filled flat, 20 cm too deep (BENCHMARK.md).
