@@ -180,3 +180,30 @@ TEST(HeightmapVolumeTest, NoScanPointsIsFailedPrecondition) {
 
 }  // namespace
 }  // namespace soilvol::volume
+
+namespace soilvol::volume {
+namespace {
+
+TEST(HeightmapVolumeTest, ScanBelowTheEmptySurfaceIsCountedCellByCell) {
+    // Soil never lies below the container: a scan 10 cm under the floor (4 noise sigmas of
+    // 2.5 cm) is what a wrong pose gives, and nearly every cell says so; a right one, almost none.
+    const Surface floor = [](double, double) { return -0.6; };
+    const Cloud empty = Sample(floor, 20000, 0.025, 21);
+    HeightmapConfig config;
+    config.cell_m = 0.1;
+    const auto sunk = HeightmapVolume(Seen(empty, 0.025),
+                                      Seen(Sample([](double, double) { return -0.7; }, 20000,
+                                                  0.025, 22),
+                                           0.025)[0],
+                                      kOpening, config);
+    ASSERT_TRUE(sunk.ok()) << sunk.status();
+    EXPECT_GT(sunk->cells.below_empty, 0.9 * sunk->cells.both_measured);
+    const auto right =
+        HeightmapVolume(Seen(empty, 0.025), Seen(Sample(floor, 20000, 0.025, 23), 0.025)[0],
+                        kOpening, config);
+    ASSERT_TRUE(right.ok()) << right.status();
+    EXPECT_LT(right->cells.below_empty, 0.02 * right->cells.both_measured);
+}
+
+}  // namespace
+}  // namespace soilvol::volume

@@ -1,0 +1,143 @@
+#include "core/align/icp.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "core/cloud/local_surface.hpp"
+#include "core/cloud/voxel_grid.hpp"
+
+namespace soilvol::align {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// An open box (floor and four walls, 1.2 x 0.8 x 0.5 m) with a lug on one side, sampled on a
+// 1 cm grid: a shape that pins every direction of a pose.
+Cloud Object() {
+    Cloud c;
+    for (double x = -0.6; x <= 0.6; x += 0.01) {
+        for (double y = -0.4; y <= 0.4; y += 0.01) c.emplace_back(x, y, -0.5);
+        for (double z = -0.5; z <= 0.0; z += 0.01) {
+            c.emplace_back(x, -0.4, z);
+            c.emplace_back(x, 0.4, z);
+        }
+    }
+    for (double y = -0.4; y <= 0.4; y += 0.01) {
+        for (double z = -0.5; z <= 0.0; z += 0.01) {
+            c.emplace_back(-0.6, y, z);
+            c.emplace_back(0.6, y, z);
+        }
+    }
+    for (double x = 0.2; x <= 0.3; x += 0.01) {
+        for (double z = -0.3; z <= 0.1; z += 0.01) c.emplace_back(x, 0.55, z);
+    }
+    return c;
+}
+
+// The model's alignment set: smoothed, voxel-thinned, with normals (as ContainerModel's).
+struct Source {
+    Cloud points, normals;
+};
+Source MakeSource(const Cloud& object) {
+    const cloud::LocalSurface s =
+        cloud::SmoothLocalSurface(cloud::VoxelDownsample(object, 0.03), 0.08);
+    return {s.points, s.normals};
+}
+
+Cloud Transformed(const Cloud& c, const Pose& T, double sigma, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    Cloud out;
+    for (const auto& p : c) {
+        out.push_back((T * p.cast<double>() +
+                       Eigen::Vector3d(noise(rng), noise(rng), noise(rng)))
+                          .cast<float>());
+    }
+    return out;
+}
+
+Pose RandomPose(double max_deg, double max_m, std::mt19937& rng) {
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Pose T = Pose::Identity();
+    const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+    T.linear() = Eigen::AngleAxisd(max_deg * kPi / 180.0 * std::abs(u(rng)), axis).matrix();
+    T.translation() = max_m * Eigen::Vector3d(u(rng), u(rng), u(rng)) / std::sqrt(3.0);
+    return T;
+}
+
+TEST(IcpTest, RecoversSmallPoseChangesWithinTheNoise) {
+    const Cloud object = Object();
+    const Source source = MakeSource(object);
+    Pose placed = Pose::Identity();
+    placed.translation() = Eigen::Vector3d(0.1, -0.2, 3.0);
+    std::mt19937 rng(7);
+    for (int trial = 0; trial < 5; ++trial) {
+        const Pose truth = placed * RandomPose(5.0, 0.10, rng);
+        const Cloud scan = Transformed(object, truth, 0.005, 10 + trial);
+        const AlignResult r = Align(source.points, source.normals, scan, placed, AlignConfig{});
+        ASSERT_TRUE(r.converged) << trial;
+        const Pose error = truth.inverse() * r.T_scan_container;
+        EXPECT_LT(error.translation().norm(), 0.005) << trial;
+        EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / kPi, 0.3) << trial;
+        EXPECT_GT(r.fitness, 0.9);
+        EXPECT_TRUE(CheckAlignment(r, AlignGate{}).ok()) << CheckAlignment(r, AlignGate{});
+    }
+}
+
+TEST(IcpTest, CovarianceIsSmallForAShapeThatPinsThePoseAndLargeForAPlane) {
+    const Cloud object = Object();
+    const Source source = MakeSource(object);
+    const AlignResult box = Align(source.points, source.normals,
+                                  Transformed(object, Pose::Identity(), 0.005, 1), Pose::Identity(),
+                                  AlignConfig{});
+    const double box_sigma = std::sqrt(box.covariance.bottomRightCorner<3, 3>().trace());
+    EXPECT_GT(box_sigma, 0.0);
+    EXPECT_LT(box_sigma, 0.002);
+    // A plane leaves its in-plane translation and its normal rotation free: the gate refuses.
+    Cloud plane;
+    for (double x = -1.0; x <= 1.0; x += 0.01) {
+        for (double y = -1.0; y <= 1.0; y += 0.01) plane.emplace_back(x, y, 0.0);
+    }
+    const Source flat = MakeSource(plane);
+    const AlignResult r = Align(flat.points, flat.normals, Transformed(plane, Pose::Identity(),
+                                                                      0.005, 2),
+                                Pose::Identity(), AlignConfig{});
+    const absl::Status gate = CheckAlignment(r, AlignGate{});
+    EXPECT_EQ(gate.code(), absl::StatusCode::kFailedPrecondition);
+    EXPECT_NE(gate.message().find("pose 1-sigma"), std::string::npos);
+}
+
+TEST(IcpTest, ReturnsInTheContentColumnAreNotContainer) {
+    const Cloud object = Object();
+    // The model: the box without its inside; the scan: the same box holding a slab of soil
+    // whose top lies level with the rim.
+    Cloud outside;
+    ContentColumn column{Polygon2d({{-0.6, -0.4}, {0.6, -0.4}, {0.6, 0.4}, {-0.6, 0.4}}), 0.05};
+    for (const auto& p : object) {
+        if (!column.Holds(p.cast<double>())) outside.push_back(p);
+    }
+    const Source source = MakeSource(outside);
+    Cloud scan = object;
+    for (double x = -0.58; x <= 0.58; x += 0.01) {
+        for (double y = -0.38; y <= 0.38; y += 0.01) scan.emplace_back(x, y, 0.0);
+    }
+    const AlignResult with = Align(source.points, source.normals, scan, Pose::Identity(),
+                                   AlignConfig{}, &column);
+    EXPECT_LT(with.T_scan_container.translation().norm(), 0.003);
+    EXPECT_GT(with.fitness, 0.8);
+}
+
+TEST(IcpTest, EmptyInputsGiveAnUnconvergedResultThatTheGateRefuses) {
+    const AlignResult r = Align({}, {}, Object(), Pose::Identity(), AlignConfig{});
+    EXPECT_FALSE(r.converged);
+    EXPECT_EQ(CheckAlignment(r, AlignGate{}).code(), absl::StatusCode::kFailedPrecondition);
+    const Source source = MakeSource(Object());
+    const AlignResult none = Align(source.points, source.normals, {}, Pose::Identity(), {});
+    EXPECT_EQ(none.target_points, 0u);
+    EXPECT_FALSE(CheckAlignment(none, AlignGate{}).ok());
+}
+
+}  // namespace
+}  // namespace soilvol::align

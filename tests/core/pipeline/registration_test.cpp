@@ -1,0 +1,78 @@
+#include "core/pipeline/registration.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/sim/scene.hpp"
+
+namespace soilvol::pipeline {
+namespace {
+
+// An excavator bucket seen from behind its curved back, which hides its own inside from that
+// view; turned half way round, the container shows it.
+sim::SceneSpec View(double azimuth_offset_deg, uint64_t scan_seed) {
+    sim::SceneSpec spec;
+    spec.shape = sim::RandomShape(sim::ContainerFamily::kExcavator, 1);
+    spec.sensor = sim::ViewpointFor(*spec.shape, 1);
+    spec.sensor.range_noise_sigma_m = 0.01;
+    spec.sensor.azimuth_deg += azimuth_offset_deg;
+    spec.jitter = {3.0, 0.05};
+    spec.scan_seed = scan_seed;
+    return spec;
+}
+
+TEST(RegistrationTest, ASecondViewFillsWhatTheFirstHid) {
+    const sim::Scene first = sim::SimulateScene(View(0.0, 1));
+    const sim::Scene turned = sim::SimulateScene(View(180.0, 2));
+    const double truth = first.struck_capacity_m3;
+    const auto one = RegisterContainer(first.opening_corners_scan, {{first.points, std::nullopt}},
+                                       RegistrationConfig{});
+    ASSERT_TRUE(one.ok()) << one.status();
+    const auto two =
+        RegisterContainer(first.opening_corners_scan,
+                          {{first.points, std::nullopt}, {turned.points, turned.opening_corners_scan}},
+                          RegistrationConfig{});
+    ASSERT_TRUE(two.ok()) << two.status();
+    ASSERT_EQ(two->alignments.size(), 1u);
+    EXPECT_EQ(two->model.cavity.size(), 2u);
+    // The hidden back is a fifth of the opening or more; both views see nearly all of it.
+    EXPECT_LT(one->model.observed_share, 0.9);
+    EXPECT_GT(two->model.observed_share, 0.95);
+    const double err_one = std::abs(one->model.struck_capacity_m3 - truth);
+    const double err_two = std::abs(two->model.struck_capacity_m3 - truth);
+    EXPECT_LT(err_two, 0.5 * err_one);
+    EXPECT_LT(err_two, 0.02 * truth);
+}
+
+TEST(RegistrationTest, ALaterScanWithBadCornersIsInvalidArgumentNamingIt) {
+    const sim::Scene first = sim::SimulateScene(View(0.0, 1));
+    Corners crossed = first.opening_corners_scan;
+    std::swap(crossed[1], crossed[2]);
+    const auto r = RegisterContainer(first.opening_corners_scan,
+                                     {{first.points, std::nullopt}, {first.points, crossed}},
+                                     RegistrationConfig{});
+    ASSERT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(r.status().message().find("empty scan 2"), std::string::npos) << r.status();
+}
+
+TEST(RegistrationTest, ALaterScanOfSomethingElseIsRefusedNamingIt) {
+    const sim::Scene first = sim::SimulateScene(View(0.0, 1));
+    Cloud wall;
+    for (double x = -1.0; x <= 1.0; x += 0.02) {
+        for (double y = -1.0; y <= 1.0; y += 0.02) wall.emplace_back(x, y, 6.0);
+    }
+    const auto r = RegisterContainer(first.opening_corners_scan,
+                                     {{first.points, std::nullopt}, {wall, std::nullopt}},
+                                     RegistrationConfig{});
+    ASSERT_EQ(r.status().code(), absl::StatusCode::kFailedPrecondition);
+    EXPECT_NE(r.status().message().find("empty scan 2"), std::string::npos) << r.status();
+}
+
+TEST(RegistrationTest, NoScanIsInvalidArgument) {
+    const auto r = RegisterContainer(Corners{}, {}, RegistrationConfig{});
+    EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace soilvol::pipeline
