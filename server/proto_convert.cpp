@@ -161,6 +161,8 @@ void ToProto(const model::ContainerModel& model, v1::Container* proto) {
     }
     proto->set_scan_points(static_cast<int32_t>(model.scan_points));
     proto->set_alignment_points(static_cast<int32_t>(model.alignment_points.size()));
+    proto->set_observed_share(model.observed_share);
+    proto->set_empty_scans(static_cast<int32_t>(model.cavity.size()));
 }
 
 void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto) {
@@ -186,6 +188,10 @@ void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeRespons
     timings->set_volume_ms(estimate.timings.volume_ms);
     proto->set_scan_points(static_cast<int32_t>(estimate.input_points));
     proto->set_used_points(static_cast<int32_t>(estimate.preprocessed_points));
+    v1::Coverage* coverage = proto->mutable_coverage();
+    coverage->set_model_observed_share(estimate.volume.empty_observed_share);
+    coverage->set_scan_observed_share(estimate.volume.scan_observed_share);
+    coverage->set_unobserved_uncertainty_m3(estimate.volume.unobserved_uncertainty_m3);
 }
 
 }  // namespace soilvol::server

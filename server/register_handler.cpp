@@ -5,6 +5,7 @@
 #include "core/common/timer.hpp"
 #include "core/model/model_codec.hpp"
 #include "google/protobuf/util/time_util.h"
+#include "core/pipeline/registration.hpp"
 #include "server/proto_convert.hpp"
 #include "server/soilvol_handlers.hpp"
 #include "server/status_map.hpp"
@@ -16,6 +17,36 @@ namespace {
 constexpr double kMaxRangeLimitM = 1000.0;
 
 }  // namespace
+
+absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmptyScans(
+    const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
+    CallRecord& record) const {
+    if (static_cast<std::size_t>(request.additional_scans_size()) + 1 > max_scans) {
+        return absl::InvalidArgumentError(absl::StrCat("additional_scans: at most ",
+                                                       max_scans - 1, " (got ",
+                                                       request.additional_scans_size(), ")"));
+    }
+    std::vector<pipeline::EmptyScan> scans = {{first, std::nullopt}};
+    for (int i = 0; i < request.additional_scans_size(); ++i) {
+        const v1::EmptyScan& extra = request.additional_scans(i);
+        const std::string field = absl::StrCat("additional_scans[", i, "]");
+        SOILVOL_ASSIGN_OR_RETURN(const Scan decoded, DecodeScan(extra.scan(), "", record));
+        if (decoded.calibration != nullptr) {
+            return absl::InvalidArgumentError(absl::StrCat(field, ".scan: must be a point cloud"));
+        }
+        pipeline::EmptyScan scan{decoded.cloud, std::nullopt};
+        if (extra.has_opening()) {
+            auto marks = ToOpeningMarks(extra.opening(), false);
+            if (!marks.ok()) {
+                return absl::InvalidArgumentError(
+                    absl::StrCat(field, ".", marks.status().message()));
+            }
+            scan.corners = std::get<Corners>(*marks);
+        }
+        scans.push_back(std::move(scan));
+    }
+    return scans;
+}
 
 absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRequest& request,
                                                    v1::Container* response, CallRecord& record) {
@@ -36,6 +67,10 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
         config.preprocess.max_range_m = range;
     }
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), "", record));
+    if (scan.calibration != nullptr && request.additional_scans_size() > 0) {
+        return absl::InvalidArgumentError(
+            "additional_scans: only point-cloud registrations fuse several scans");
+    }
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::OpeningMarks marks,
                              ToOpeningMarks(request.opening(), scan.calibration != nullptr));
 
@@ -50,7 +85,15 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
         response->set_registered_from(v1::SCAN_KIND_STEREO);
         response->set_calibration_id(scan.calibration->info.calibration_id());
     } else {
-        model = model::BuildContainerModel(scan.cloud, std::get<Corners>(marks), config);
+        pipeline::RegistrationConfig registration;
+        registration.model = config;
+        SOILVOL_ASSIGN_OR_RETURN(
+            std::vector<pipeline::EmptyScan> scans,
+            DecodeEmptyScans(request, scan.cloud, registration.max_scans, record));
+        auto registered =
+            pipeline::RegisterContainer(std::get<Corners>(marks), scans, registration);
+        if (!registered.ok()) return registered.status();
+        model = std::move(registered->model);
         response->set_registered_from(v1::SCAN_KIND_CLOUD);
     }
     if (!model.ok()) return model.status();

@@ -3,10 +3,12 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/common/types.hpp"
 #include "core/model/container_model.hpp"
+#include "core/pipeline/registration.hpp"
 #include "core/stereo/reconstructor.hpp"
 #include "server/dispatcher.hpp"
 #include "server/store/entry_cache.hpp"
@@ -72,6 +74,10 @@ class SoilVolumeHandlers {
     /// `calibration_id` stands in for an empty scan.stereo.calibration_id.
     absl::StatusOr<Scan> DecodeScan(const v1::Scan& scan, const std::string& calibration_id,
                                     CallRecord& record) const;
+    /// `first` and the request's additional_scans, decoded (at most max_scans in all).
+    absl::StatusOr<std::vector<pipeline::EmptyScan>> DecodeEmptyScans(
+        const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
+        CallRecord& record) const;
     /// The request's id, or a new one when it is empty; AlreadyExists when taken and
     /// `overwrite` is false (checked again atomically when the entry is written).
     absl::StatusOr<std::string> ClaimId(EntryKind kind, const std::string& id,

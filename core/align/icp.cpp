@@ -33,7 +33,7 @@ struct Target {
 // The scan points near the model at pose `initial`, outside the contents' column, voxel-averaged
 // and smoothed among themselves: what the container holds never blends into its outside.
 Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
-                     const AlignConfig& config, const ContentColumn* column) {
+                     const AlignConfig& config, const ContentColumn* column, double voxel_m) {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const auto& p : source) centre += p.cast<double>();
     centre /= static_cast<double>(std::max<std::size_t>(source.size(), 1));
@@ -49,7 +49,7 @@ Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial
         if (column != nullptr && column->Holds((to_container * p.cast<double>()))) continue;
         cropped.push_back(p);
     }
-    Cloud voxels = cloud::VoxelDownsample(cropped, config.target_voxel_m);
+    Cloud voxels = cloud::VoxelDownsample(cropped, voxel_m);
     if (config.smoothing_radius_m <= 0.0) return {std::move(voxels), {}};
     cloud::LocalSurface surface = cloud::SmoothLocalSurface(voxels, config.smoothing_radius_m);
     return {std::move(surface.points), std::move(surface.normals)};
@@ -161,7 +161,14 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
     Target target;
     for (std::size_t s = 0; s < stages.size(); ++s) {
         // Each stage crops the scan at the pose the last one found.
-        target = PrepareTarget(source, scan, T, config, column);
+        const bool last = s + 1 == stages.size();
+        ContentColumn band;
+        if (column != nullptr) {
+            band = *column;
+            band.margin_m = last ? config.fine_column_margin_m : config.coarse_column_margin_m;
+        }
+        target = PrepareTarget(source, scan, T, config, column != nullptr ? &band : nullptr,
+                               config.target_voxel_m);
         result.target_points = target.points.size();
         if (target.points.empty()) return result;
         const cloud::KdTree tree(target.points);

@@ -32,6 +32,10 @@ struct AlignConfig {
     double crop_margin_m = 0.30;       ///< scan cropped to the model's extent plus this margin
     /// Correspondences whose normals differ by more than this are rejected (with smoothing).
     double max_normal_angle_deg = 45.0;
+    /// How far inside the contents' column each stage keeps the scan's returns: the coarse
+    /// stage as far as the pose can be off, the fine one a voxel's width.
+    double coarse_column_margin_m = 0.10;
+    double fine_column_margin_m = 0.03;
     int num_threads = 0;               ///< 0 = all cores
 };
 
@@ -49,12 +53,21 @@ struct AlignGate {
 };
 
 /// Where a container's contents can be, in its own frame: over the opening polygon and below
-/// `top_m`. Returns there are left out of an alignment's target.
+/// `top_m`, and the inner walls, within `wall_band_m` of the polygon's edge and more than that
+/// below the opening (soil covers both). Returns there are left out of an alignment's target,
+/// but for a band `margin_m` wide inside the polygon's edge above the walls: with the pose
+/// still uncertain by that much, a wider cut would take the rim on one side.
 struct ContentColumn {
     Polygon2d polygon;
     double top_m = 0.05;
+    double wall_band_m = 0.05;
+    double margin_m = 0.0;
     bool Holds(const Eigen::Vector3d& p) const {
-        return p.z() < top_m && polygon.Contains(p.head<2>());
+        const Eigen::Vector2d xy = p.head<2>();
+        const bool inside = polygon.Contains(xy);
+        const double edge = polygon.DistanceToBoundary(xy);
+        if (p.z() < -wall_band_m && (inside || edge < wall_band_m)) return true;
+        return inside && p.z() < top_m && (margin_m <= 0.0 || edge > margin_m);
     }
 };
 

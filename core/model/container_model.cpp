@@ -102,19 +102,43 @@ absl::Status MeasureNoise(const Cloud& points, const ModelConfig& config, Contai
 
 }  // namespace
 
+Eigen::Vector3d SensorInContainer(const Pose& T_scan_container, const Polygon2d& opening) {
+    const Eigen::Vector3d origin = T_scan_container.inverse().translation();
+    const Eigen::Vector2d extent = opening.Max() - opening.Min();
+    if (origin.z() >= 0.1 * extent.minCoeff()) return origin;
+    const Eigen::Vector2d centre = 0.5 * (opening.Min() + opening.Max());
+    return {centre.x(), centre.y(), 1000.0 * std::max(1.0, extent.maxCoeff())};
+}
+
 align::ContentColumn ContentColumnOf(const ContainerModel& model) {
-    return {model.opening.polygon, model.column_top_m};
+    // The inner walls' band reaches 3 noise sigmas past the rim's own returns.
+    const double band = std::max(model.column_top_m, 3.0 * model.noise_sigma_m);
+    return {model.opening.polygon, model.column_top_m, band, 0.0};
 }
 
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points) {
     if (model.structure.empty() || model.structure_radius_m <= 0.0) return points;
     const cloud::KdTree tree(model.structure);
-    const auto r2 = static_cast<float>(model.structure_radius_m * model.structure_radius_m);
+    const double r = model.structure_radius_m;
+    const auto r2 = static_cast<float>(r * r);
+    // The structure lies outside the opening's column or above it: a point deeper in the
+    // column than the radius needs no search.
+    double top = -1e9;
+    for (const auto& s : model.structure) {
+        if (model.opening.polygon.Contains(s.head<2>().cast<double>())) {
+            top = std::max(top, static_cast<double>(s.z()));
+        }
+    }
     WeightedCloud kept;
     kept.sensor = points.sensor;
     kept.points.reserve(points.points.size());
     for (std::size_t i = 0; i < points.points.size(); ++i) {
-        if (tree.Nearest(points.points[i]).second <= r2) continue;
+        const Eigen::Vector3f& p = points.points[i];
+        const Eigen::Vector2d xy = p.head<2>().cast<double>();
+        const bool interior = static_cast<double>(p.z()) < top - r &&
+                              model.opening.polygon.Contains(xy) &&
+                              model.opening.polygon.DistanceToBoundary(xy) > r;
+        if (!interior && tree.Nearest(p).second <= r2) continue;
         kept.points.push_back(points.points[i]);
         if (!points.weights.empty()) kept.weights.push_back(points.weights[i]);
     }
@@ -211,7 +235,8 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
             "only ", model.alignment_points.size(), " alignment points outside the opening (need ",
             config.min_alignment_points, "): the container's outside must be visible to align it"));
     }
-    const Eigen::Vector3d sensor = model.opening.T_scan_container.inverse().translation();
+    const Eigen::Vector3d sensor =
+        SensorInContainer(model.opening.T_scan_container, model.opening.polygon);
     SOILVOL_RETURN_IF_ERROR(AddCavity(points, sensor, config, model));
     SOILVOL_RETURN_IF_ERROR(FinishSurface(config, model));
     return model;
@@ -221,7 +246,8 @@ absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
                           const ModelConfig& config, ContainerModel& model) {
     const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess);
     const Cloud points = ToContainerFrame(pre.points, T_scan_container);
-    SOILVOL_RETURN_IF_ERROR(AddCavity(points, T_scan_container.inverse().translation(), config, model));
+    SOILVOL_RETURN_IF_ERROR(AddCavity(
+        points, SensorInContainer(T_scan_container, model.opening.polygon), config, model));
     return FinishSurface(config, model);
 }
 

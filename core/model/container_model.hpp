@@ -71,6 +71,12 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
 absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
                           const ModelConfig& config, ContainerModel& model);
 
+/// Where the rays of a scan come from, in the container frame: the scan frame's origin mapped by
+/// `T_scan_container`, when it lies above the opening plane (by a tenth of the opening's
+/// smaller side at least) as a sensor that sees the inside must. A cloud whose origin is not
+/// its sensor (a site frame, a merged cloud) is read as seen from straight above.
+Eigen::Vector3d SensorInContainer(const Pose& T_scan_container, const Polygon2d& opening);
+
 /// Where the model's contents can be (alignments leave returns there out).
 align::ContentColumn ContentColumnOf(const ContainerModel& model);
 

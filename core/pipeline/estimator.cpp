@@ -26,7 +26,7 @@ absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& mode
     WeightedCloud column = model::RemoveStructure(
         model,
         volume::SelectColumn(WeightedCloud{aligned, {}}, opening, -model.depth_m, config.heightmap));
-    const Eigen::Vector3d sensor = T_scan_container.inverse().translation();
+    const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
     column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
                                        config.heightmap.ray_weights);
     column.sensor = sensor;

@@ -28,6 +28,11 @@ absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
                                                const std::vector<EmptyScan>& scans,
                                                const RegistrationConfig& config) {
     if (scans.empty()) return absl::InvalidArgumentError("no empty scan to register");
+    if (scans.size() > config.max_scans) {
+        return absl::InvalidArgumentError(absl::StrCat("additional_scans: at most ",
+                                                       config.max_scans - 1, " (got ",
+                                                       scans.size() - 1, ")"));
+    }
     Registration out;
     SOILVOL_ASSIGN_OR_RETURN(out.model,
                              model::BuildContainerModel(scans[0].points, corners, config.model));

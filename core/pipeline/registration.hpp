@@ -18,6 +18,7 @@ struct EmptyScan {
 };
 
 struct RegistrationConfig {
+    std::size_t max_scans = 8;  ///< more is InvalidArgument
     model::ModelConfig model;
     align::AlignConfig align;
     align::AlignGate gate;
@@ -33,7 +34,7 @@ struct Registration {
 /// corners), then each further scan aligned to the model and fused, so that what one view hid
 /// another fills (ContainerModel::observed_share says how much of the opening they saw).
 /// Errors of BuildContainerModel; FailedPrecondition naming the scan whose alignment fails the
-/// gate; InvalidArgument for no scan or bad corners of a later scan.
+/// gate; InvalidArgument for no scan, more than max_scans, or bad corners of a later scan.
 absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
                                                const std::vector<EmptyScan>& scans,
                                                const RegistrationConfig& config);

@@ -15,9 +15,15 @@ std::vector<double> FreeSpaceCeiling(const Grid& grid, const std::vector<Weighte
                                               {kInf, kInf, kInf});
     const Eigen::Vector2d lo = grid.origin;
     const Eigen::Vector2d hi = grid.origin + grid.cell_m * Eigen::Vector2d(grid.cols, grid.rows);
-    const double step = 0.5 * grid.cell_m;
+    const double step = grid.cell_m;
+    // Rays are far denser than cells: a few per fine bin bound a cell as well as all of them.
+    const double area = grid.cell_m * grid.cell_m * grid.cols * grid.rows;
+    const auto wanted =
+        static_cast<std::size_t>(std::max(2000.0, 4.0 * area / (grid.cell_m * grid.cell_m)));
     for (const WeightedCloud& scan : scans) {
-    for (const Eigen::Vector3f& p : scan.points) {
+    const std::size_t stride = std::max<std::size_t>(1, scan.points.size() / wanted);
+    for (std::size_t i = 0; i < scan.points.size(); i += stride) {
+        const Eigen::Vector3f& p = scan.points[i];
         const Eigen::Vector3d q = p.cast<double>();
         const Eigen::Vector3d d = q - scan.sensor;
         const double horizontal = d.head<2>().norm();

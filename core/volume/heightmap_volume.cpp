@@ -196,6 +196,14 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
             if (h < -3.0 * std::max(cell_sigma, soil.noise_sigma_m)) ++result.cells.below_empty;
         }
     }
+    double area = 0.0, scan_seen = 0.0;
+    for (std::size_t k = 0; k < num_cells; ++k) {
+        area += grid.weight[k];
+        if (soil.support[k] > 0) scan_seen += grid.weight[k];
+    }
+    result.scan_observed_share = area > 0.0 ? scan_seen / area : 0.0;
+    result.empty_observed_share =
+        empty_surface.area_m2 > 0.0 ? empty_surface.observed_area_m2 / empty_surface.area_m2 : 0.0;
     result.volume_m3 = std::max(0.0, result.raw_volume_m3);
     result.uncertainty_m3 = std::hypot(std::sqrt(variance), unobserved);
     result.unobserved_uncertainty_m3 = unobserved;

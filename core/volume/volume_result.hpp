@@ -36,7 +36,9 @@ struct VolumeResult {
     std::vector<double> soil_height_m;  ///< per cell, soil surface minus empty surface; NaN outside
     std::vector<CellState> state;       ///< per cell
     CellCounts cells;
-    double scan_noise_sigma_m = 0.0;   ///< robust noise along z in the scan's cells
+    double scan_observed_share = 0.0;   ///< of the opening's area, measured in the scan
+    double empty_observed_share = 0.0;  ///< of the opening's area, measured in the empty model
+    double scan_noise_sigma_m = 0.0;    ///< robust noise along z in the scan's cells
     double model_noise_sigma_m = 0.0;  ///< same for the empty model
     int window_cells = 1;              ///< side of the fit window, in cells
 };

@@ -112,7 +112,7 @@ TEST(IcpTest, CovarianceIsSmallForAShapeThatPinsThePoseAndLargeForAPlane) {
 TEST(IcpTest, ReturnsInTheContentColumnAreNotContainer) {
     const Cloud object = Object();
     // The model: the box without its inside; the scan: the same box holding a slab of soil
-    // whose top lies level with the rim.
+    // 20 cm below the rim, which a target smoothed across the opening would blend into it.
     Cloud outside;
     ContentColumn column{Polygon2d({{-0.6, -0.4}, {0.6, -0.4}, {0.6, 0.4}, {-0.6, 0.4}}), 0.05};
     for (const auto& p : object) {
@@ -121,7 +121,7 @@ TEST(IcpTest, ReturnsInTheContentColumnAreNotContainer) {
     const Source source = MakeSource(outside);
     Cloud scan = object;
     for (double x = -0.58; x <= 0.58; x += 0.01) {
-        for (double y = -0.38; y <= 0.38; y += 0.01) scan.emplace_back(x, y, 0.0);
+        for (double y = -0.38; y <= 0.38; y += 0.01) scan.emplace_back(x, y, -0.2);
     }
     const AlignResult with = Align(source.points, source.normals, scan, Pose::Identity(),
                                    AlignConfig{}, &column);
