@@ -86,8 +86,7 @@ FamilyRows RunFamilies(int seeds, int empty_scans, std::ostream& kv) {
             observed.push_back(reg.model->observed_share);
             for (std::size_t f = 0; f < kFillShares.size(); ++f) {
                 const double fill_m = kFillShares[f] * sim::MakeContainer(*setup.shape).depth_m;
-                const sim::Scene scene =
-                    FilledScan(setup, fill_m, static_cast<uint64_t>(seed), f);
+                const sim::Scene scene = FilledScan(setup, fill_m, static_cast<uint64_t>(seed), f);
                 const auto e = Estimate(*reg.model, scene.points, volume::Method::kHeightmap, 0.0);
                 Cell& c = cells[f];
                 c.true_l.push_back(scene.true_volume_m3 * kLitre);
@@ -115,11 +114,11 @@ FamilyRows RunFamilies(int seeds, int empty_scans, std::ostream& kv) {
             all.insert(all.end(), c.error_pct.begin(), c.error_pct.end());
             within += c.within_2_sigma;
             count += static_cast<int>(c.error_pct.size());
-            md << absl::StrFormat("| %s | %d | %.0f%% | %.1f | %+.2f | %.2f | %.2f | %d/%d | %d |\n",
-                                  name, empty_scans, 100.0 * kFillShares[f], Mean(c.true_l),
-                                  Mean(c.error_pct), MeanAbs(c.error_pct), MaxAbs(c.error_pct),
-                                  c.within_2_sigma, static_cast<int>(c.error_pct.size()),
-                                  c.failures);
+            md << absl::StrFormat(
+                "| %s | %d | %.0f%% | %.1f | %+.2f | %.2f | %.2f | %d/%d | %d |\n", name,
+                empty_scans, 100.0 * kFillShares[f], Mean(c.true_l), Mean(c.error_pct),
+                MeanAbs(c.error_pct), MaxAbs(c.error_pct), c.within_2_sigma,
+                static_cast<int>(c.error_pct.size()), c.failures);
         }
         const double coverage = count > 0 ? static_cast<double>(within) / count : 0.0;
         summary << absl::StrFormat("| %s | %d | %.2f | %.2f | %.2f | %.2f | %.2f (%.2f) | %.2f |\n",
@@ -191,8 +190,9 @@ int FamilyCase(const FamilyCaseOptions& options, std::ostream& out) {
         ac.smoothing_radius_m = std::max(ac.smoothing_radius_m, reg.model->smoothing_radius_m);
         const cloud::PreprocessResult pre = cloud::Preprocess(scene.points, {});
         const align::ContentColumn column = model::ContentColumnOf(*reg.model);
-        const auto at_truth = align::Align(reg.model->alignment_points, reg.model->alignment_normals,
-                                           pre.points, scene.T_scan_container, ac, &column);
+        const auto at_truth =
+            align::Align(reg.model->alignment_points, reg.model->alignment_normals, pre.points,
+                         scene.T_scan_container, ac, &column);
         out << "at the true pose: fitness " << at_truth.fitness << " rmse " << at_truth.rmse_m
             << " targets " << at_truth.target_points << " model points "
             << reg.model->alignment_points.size() << "\n";
@@ -215,8 +215,8 @@ int FamilyCase(const FamilyCaseOptions& options, std::ostream& out) {
         "true %.1f L estimate %.1f L sigma %.1f L; fitness %.3f rmse %.4f; pose error %.4f %.4f "
         "%.4f m, %.3f deg\n",
         scene.true_volume_m3 * kLitre, e->volume_m3 * kLitre, e->uncertainty_m3 * kLitre,
-        e->alignment.fitness, e->alignment.rmse_m, delta.translation().x(),
-        delta.translation().y(), delta.translation().z(),
+        e->alignment.fitness, e->alignment.rmse_m, delta.translation().x(), delta.translation().y(),
+        delta.translation().z(),
         Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / 3.14159265358979);
     // Per-cell error of the soil height [cm] against the truth: rows from +y down.
     const volume::Grid& g = e->volume.grid;
@@ -230,20 +230,22 @@ int FamilyCase(const FamilyCaseOptions& options, std::ostream& out) {
                 const auto uk = static_cast<std::size_t>(r * g.cols + c);
                 if (g.weight[uk] <= 0.0) continue;
                 const Eigen::Vector2d a = g.anchor[uk];
-                out << absl::StrFormat("%5.0f%s",
-                                       100.0 * (empty->height[uk] -
-                                                geometry.InnerSurfaceZ(a.x(), a.y())),
-                                       empty->support[uk] > 0 ? " " : "*");
+                out << absl::StrFormat(
+                    "%5.0f%s", 100.0 * (empty->height[uk] - geometry.InnerSurfaceZ(a.x(), a.y())),
+                    empty->support[uk] > 0 ? " " : "*");
             }
             out << "\n";
         }
     }
-    const sim::SoilSurface soil(geometry, [&] {
-        sim::SoilSpec s;
-        s.fill_height_m = fill_share * geometry.depth_m;
-        s.perturbation_m = setup.perturbation_m;
-        return s;
-    }(), static_cast<uint64_t>(seed));
+    const sim::SoilSurface soil(
+        geometry,
+        [&] {
+            sim::SoilSpec s;
+            s.fill_height_m = fill_share * geometry.depth_m;
+            s.perturbation_m = setup.perturbation_m;
+            return s;
+        }(),
+        static_cast<uint64_t>(seed));
     out << "cell " << g.cell_m << " m; per cell: error of soil height [cm] (* = interpolated)\n";
     for (int r = g.rows - 1; r >= 0; --r) {
         for (int c = 0; c < g.cols; ++c) {

@@ -4,8 +4,8 @@
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
 #include "core/model/model_codec.hpp"
-#include "google/protobuf/util/time_util.h"
 #include "core/pipeline/registration.hpp"
+#include "google/protobuf/util/time_util.h"
 #include "server/proto_convert.hpp"
 #include "server/soilvol_handlers.hpp"
 #include "server/status_map.hpp"
@@ -22,9 +22,9 @@ absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmpty
     const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
     CallRecord& record) const {
     if (static_cast<std::size_t>(request.additional_scans_size()) + 1 > max_scans) {
-        return absl::InvalidArgumentError(absl::StrCat("additional_scans: at most ",
-                                                       max_scans - 1, " (got ",
-                                                       request.additional_scans_size(), ")"));
+        return absl::InvalidArgumentError(absl::StrCat("additional_scans: at most ", max_scans - 1,
+                                                       " (got ", request.additional_scans_size(),
+                                                       ")"));
     }
     std::vector<pipeline::EmptyScan> scans = {{first, std::nullopt}};
     for (int i = 0; i < request.additional_scans_size(); ++i) {

@@ -201,10 +201,11 @@ absl::Status CheckAlignment(const AlignResult& result, const AlignGate& gate) {
                                     .eigenvalues()
                                     .maxCoeff())) *
         180.0 / 3.14159265358979;
-    const double trans_sigma_m = std::sqrt(std::max(
-        0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(result.covariance.bottomRightCorner<3, 3>())
-                 .eigenvalues()
-                 .maxCoeff()));
+    const double trans_sigma_m =
+        std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(
+                                    result.covariance.bottomRightCorner<3, 3>())
+                                    .eigenvalues()
+                                    .maxCoeff()));
     const bool bad = result.correspondences < gate.min_correspondences ||
                      result.fitness < gate.min_fitness || result.rmse_m > gate.max_rmse_m ||
                      trans_sigma_m > gate.max_translation_sigma_m ||
@@ -217,9 +218,9 @@ absl::Status CheckAlignment(const AlignResult& result, const AlignGate& gate) {
         "%.2f deg), %s after %d iterations; is the container's outside visible and near its "
         "registered pose?",
         result.correspondences, gate.min_correspondences, result.fitness, gate.min_fitness,
-        result.rmse_m, gate.max_rmse_m, trans_sigma_m, gate.max_translation_sigma_m,
-        rot_sigma_deg, gate.max_rotation_sigma_deg,
-        result.converged ? "converged" : "not converged", result.iterations));
+        result.rmse_m, gate.max_rmse_m, trans_sigma_m, gate.max_translation_sigma_m, rot_sigma_deg,
+        gate.max_rotation_sigma_deg, result.converged ? "converged" : "not converged",
+        result.iterations));
 }
 
 }  // namespace soilvol::align

@@ -35,8 +35,8 @@ struct AlignConfig {
     /// How far inside the contents' column each stage keeps the scan's returns: the coarse
     /// stage as far as the pose can be off, the fine one a voxel's width.
     double coarse_column_margin_m = 0.10;
-    double fine_column_margin_m = 0.03;
-    int num_threads = 0;               ///< 0 = all cores
+    double fine_column_margin_m = 0.0;
+    int num_threads = 0;  ///< 0 = all cores
 };
 
 /// Refuses a volume from a bad alignment. No share of matched points decides alone: a heap
@@ -44,11 +44,12 @@ struct AlignConfig {
 /// enough matches that pin every direction of the pose; whether the pose agrees with the
 /// contents is judged after the volume (pipeline::EstimateVolume).
 struct AlignGate {
-    std::size_t min_correspondences = 40;  ///< model points with a scan point within the fine distance
+    std::size_t min_correspondences =
+        40;                     ///< model points with a scan point within the fine distance
     double min_fitness = 0.05;  ///< share of those: below it the scan lost the container
     double max_rmse_m = 0.05;   ///< point-to-plane RMS of the correspondences
-    double max_translation_sigma_m = 0.02;  ///< largest 1-sigma of the position from the fit
-    double max_rotation_sigma_deg = 1.0;    ///< largest 1-sigma of the orientation
+    double max_translation_sigma_m = 0.05;  ///< largest 1-sigma of the position from the fit
+    double max_rotation_sigma_deg = 3.0;    ///< largest 1-sigma of the orientation
     bool require_converged = true;
 };
 

@@ -38,8 +38,20 @@ std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor
     const LocalSurface surface = SmoothLocalSurface(centroids, radius);
     // SmoothLocalSurface keeps the centroids with neighbours, in order: map them back.
     std::vector<int64_t> normal_of(centroids.size(), -1);
-    for (std::size_t v = 0, s = 0; v < centroids.size() && s < surface.sources.size(); ++v) {
-        if (surface.sources[s] == centroids[v]) normal_of[v] = static_cast<int64_t>(s++);
+    std::size_t missing = 0;
+    for (std::size_t v = 0, s = 0; v < centroids.size(); ++v) {
+        if (s < surface.sources.size() && surface.sources[s] == centroids[v]) {
+            normal_of[v] = static_cast<int64_t>(s++);
+        } else {
+            ++missing;
+        }
+    }
+    // A voxel too sparse for a normal of its own takes its nearest neighbour's.
+    if (missing > 0 && !surface.sources.empty()) {
+        const KdTree tree(surface.sources);
+        for (std::size_t v = 0; v < centroids.size(); ++v) {
+            if (normal_of[v] < 0) normal_of[v] = tree.Nearest(centroids[v]).first;
+        }
     }
     const Eigen::Vector3f origin = sensor_origin.cast<float>();
     const auto n = static_cast<long>(points.size());

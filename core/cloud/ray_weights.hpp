@@ -12,8 +12,8 @@ namespace soilvol::cloud {
 /// variance of a height reading is v = n_z^2 / (r.n)^2, the point's weight (capped at 4): 1 on
 /// a floor seen from straight above, 2 from 45 deg, 0 on a vertical wall.
 struct RayWeightConfig {
-    double voxel_m = 0.03;    ///< the normals come from a voxel-averaged copy of the points
-    double radius_m = 0.05;   ///< neighbourhood of each normal, at least
+    double voxel_m = 0.03;      ///< the normals come from a voxel-averaged copy of the points
+    double radius_m = 0.05;     ///< neighbourhood of each normal, at least
     double noise_sigmas = 2.5;  ///< ... and at least this many noise sigmas
 };
 

@@ -186,11 +186,11 @@ absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
     if (cavity.points.size() < config.min_inside_points) {
         return absl::FailedPreconditionError(absl::StrCat(
             "only ", cavity.points.size(), " points of empty scan ", model.cavity.size() + 1,
-            " lie inside the container clear of its rim and walls (need ",
-            config.min_inside_points, "): the inside must be visible"));
+            " lie inside the container clear of its rim and walls (need ", config.min_inside_points,
+            "): the inside must be visible"));
     }
-    cavity.weights = cloud::RayWeights(cavity.points, sensor, model.noise_sigma_m,
-                                       config.heightmap.ray_weights);
+    cavity.weights =
+        cloud::RayWeights(cavity.points, sensor, model.noise_sigma_m, config.heightmap.ray_weights);
     model.inside.insert(model.inside.end(), inside.begin(), inside.end());
     model.cavity.push_back(std::move(cavity));
     return absl::OkStatus();

@@ -39,13 +39,13 @@ struct ModelConfig {
 /// Clouds are in the container frame of `opening`.
 struct ContainerModel {
     Opening opening;  ///< T_scan_container: the container in the empty scan's frame
-    Cloud inside;           ///< empty points over the opening
+    Cloud inside;     ///< empty points over the opening
     /// Per empty scan: its inside points clear of the structure, with ray weights and sensor.
     std::vector<WeightedCloud> cavity;
-    Cloud structure;        ///< smoothed empty surface outside the opening's column
-    double structure_radius_m = 0.0;  ///< returns this near the structure are not contents
-    double column_top_m = 0.05;       ///< contents: over the opening, below this height
-    double smoothing_radius_m = 0.0;  ///< of the alignment set; each scan is smoothed alike
+    Cloud structure;                      ///< smoothed empty surface outside the opening's column
+    double structure_radius_m = 0.0;      ///< returns this near the structure are not contents
+    double column_top_m = 0.05;           ///< contents: over the opening, below this height
+    double smoothing_radius_m = 0.0;      ///< of the alignment set; each scan is smoothed alike
     Cloud alignment_points;               ///< outside points used for ICP
     Cloud alignment_normals;              ///< unit normals of alignment_points
     double depth_m = 0.0;                 ///< opening plane to the lowest empty-surface cell

@@ -131,8 +131,8 @@ std::string EncodePayload(const ContainerModel& model) {
     }
     w.Put<double>(model.opening.nonplanarity_m);
     w.Put<double>(model.opening.area_m2);
-    for (const Cloud* cloud : {&model.inside, &model.structure, &model.alignment_points,
-                               &model.alignment_normals}) {
+    for (const Cloud* cloud :
+         {&model.inside, &model.structure, &model.alignment_points, &model.alignment_normals}) {
         w.PutCloud(*cloud);
     }
     w.Put<uint32_t>(static_cast<uint32_t>(model.cavity.size()));
@@ -142,8 +142,9 @@ std::string EncodePayload(const ContainerModel& model) {
         for (int i = 0; i < 3; ++i) w.Put<double>(c.sensor[i]);
     }
     for (const double value :
-         {model.structure_radius_m, model.smoothing_radius_m, model.column_top_m, model.observed_share, model.depth_m, model.struck_capacity_m3, model.heaped_capacity_sae_m3,
-          model.heaped_capacity_iso_m3, model.noise_sigma_m}) {
+         {model.structure_radius_m, model.smoothing_radius_m, model.column_top_m,
+          model.observed_share, model.depth_m, model.struck_capacity_m3,
+          model.heaped_capacity_sae_m3, model.heaped_capacity_iso_m3, model.noise_sigma_m}) {
         w.Put<double>(value);
     }
     w.Put<uint64_t>(model.scan_points);
@@ -178,7 +179,8 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
         WeightedCloud c;
         c.points = r.GetCloud("cavity");
         c.weights = r.GetFloats("cavity weights");
-        if (c.weights.size() != c.points.size()) r.Fail("cavity points and weights differ in count");
+        if (c.weights.size() != c.points.size())
+            r.Fail("cavity points and weights differ in count");
         for (int i = 0; i < 3; ++i) c.sensor[i] = r.GetFinite("cavity sensor");
         model.cavity.push_back(std::move(c));
     }

@@ -23,12 +23,12 @@ absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& mode
     }
     // Returns of the container's own rim and outside are not contents; every other return
     // weighs by what it tells of the height under it, seen along its ray.
-    WeightedCloud column = model::RemoveStructure(
-        model,
-        volume::SelectColumn(WeightedCloud{aligned, {}}, opening, -model.depth_m, config.heightmap));
+    WeightedCloud column =
+        model::RemoveStructure(model, volume::SelectColumn(WeightedCloud{aligned, {}}, opening,
+                                                           -model.depth_m, config.heightmap));
     const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
-    column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
-                                       config.heightmap.ray_weights);
+    column.weights =
+        cloud::RayWeights(column.points, sensor, model.noise_sigma_m, config.heightmap.ray_weights);
     column.sensor = sensor;
     return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap);
 }
@@ -74,8 +74,8 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
     // Sec. 3.4: grid and integrate in the container frame.
     const Cloud aligned = model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container);
-    SOILVOL_ASSIGN_OR_RETURN(estimate.volume,
-                             Integrate(model, aligned, estimate.alignment.T_scan_container, config));
+    SOILVOL_ASSIGN_OR_RETURN(
+        estimate.volume, Integrate(model, aligned, estimate.alignment.T_scan_container, config));
     estimate.timings.volume_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(CheckContents(estimate.volume, config));
     estimate.volume_m3 = estimate.volume.volume_m3;

@@ -29,9 +29,8 @@ absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
                                                const RegistrationConfig& config) {
     if (scans.empty()) return absl::InvalidArgumentError("no empty scan to register");
     if (scans.size() > config.max_scans) {
-        return absl::InvalidArgumentError(absl::StrCat("additional_scans: at most ",
-                                                       config.max_scans - 1, " (got ",
-                                                       scans.size() - 1, ")"));
+        return absl::InvalidArgumentError(absl::StrCat(
+            "additional_scans: at most ", config.max_scans - 1, " (got ", scans.size() - 1, ")"));
     }
     Registration out;
     SOILVOL_ASSIGN_OR_RETURN(out.model,
@@ -41,11 +40,12 @@ absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
                                  InitialPose(scans[i], out.model, config.model, i));
         align::AlignConfig align = config.align;
         align.smoothing_radius_m = std::max(align.smoothing_radius_m, out.model.smoothing_radius_m);
-        const cloud::PreprocessResult pre = cloud::Preprocess(scans[i].points, config.model.preprocess);
+        const cloud::PreprocessResult pre =
+            cloud::Preprocess(scans[i].points, config.model.preprocess);
         const align::ContentColumn column = model::ContentColumnOf(out.model);
-        align::AlignResult alignment = align::Align(out.model.alignment_points,
-                                                    out.model.alignment_normals, pre.points,
-                                                    initial, align, &column);
+        align::AlignResult alignment =
+            align::Align(out.model.alignment_points, out.model.alignment_normals, pre.points,
+                         initial, align, &column);
         if (const absl::Status gate = align::CheckAlignment(alignment, config.gate); !gate.ok()) {
             return absl::FailedPreconditionError(
                 absl::StrCat("empty scan ", i + 1, ": ", gate.message()));

@@ -48,12 +48,10 @@ void AddBucketLinkage(const ContainerShape& s, MeshBuilder* mesh) {
     const double reach = 0.2 + 0.15 * s.depth_m;
     mesh->AddBox({-0.55 * hx, hy, -0.7 * s.depth_m}, {-0.55 * hx + 0.05, hy + reach, 0.12});
     mesh->AddBox({0.25 * hx, hy, -0.7 * s.depth_m}, {0.25 * hx + 0.05, hy + reach, 0.12});
-    const Eigen::Matrix3d tilt =
-        (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) *
-         Eigen::AngleAxisd(-0.35, Eigen::Vector3d::UnitX()))
-            .toRotationMatrix();
-    mesh->AddOrientedBox({0.7 * hx, hy + 0.5 * reach, -0.45 * s.depth_m}, {0.06, 0.18, 0.06},
-                         tilt);
+    const Eigen::Matrix3d tilt = (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) *
+                                  Eigen::AngleAxisd(-0.35, Eigen::Vector3d::UnitX()))
+                                     .toRotationMatrix();
+    mesh->AddOrientedBox({0.7 * hx, hy + 0.5 * reach, -0.45 * s.depth_m}, {0.06, 0.18, 0.06}, tilt);
 }
 
 // Cab in front (-x) and chassis rails under the floor.
@@ -67,10 +65,12 @@ void AddBodyParts(const ContainerShape& s, MeshBuilder* mesh) {
 }  // namespace
 
 const std::vector<ContainerFamily>& AllFamilies() {
-    static const std::vector<ContainerFamily> kAll = {
-        ContainerFamily::kBox,       ContainerFamily::kSlopedSymmetric,
-        ContainerFamily::kSlopedAsymmetric, ContainerFamily::kExcavator,
-        ContainerFamily::kFlaredBody, ContainerFamily::kHighSideBin};
+    static const std::vector<ContainerFamily> kAll = {ContainerFamily::kBox,
+                                                      ContainerFamily::kSlopedSymmetric,
+                                                      ContainerFamily::kSlopedAsymmetric,
+                                                      ContainerFamily::kExcavator,
+                                                      ContainerFamily::kFlaredBody,
+                                                      ContainerFamily::kHighSideBin};
     return kAll;
 }
 

@@ -21,34 +21,34 @@ std::vector<double> FreeSpaceCeiling(const Grid& grid, const std::vector<Weighte
     const auto wanted =
         static_cast<std::size_t>(std::max(2000.0, 4.0 * area / (grid.cell_m * grid.cell_m)));
     for (const WeightedCloud& scan : scans) {
-    const std::size_t stride = std::max<std::size_t>(1, scan.points.size() / wanted);
-    for (std::size_t i = 0; i < scan.points.size(); i += stride) {
-        const Eigen::Vector3f& p = scan.points[i];
-        const Eigen::Vector3d q = p.cast<double>();
-        const Eigen::Vector3d d = q - scan.sensor;
-        const double horizontal = d.head<2>().norm();
-        if (horizontal < step) continue;
-        // Clip the ray's xy to the grid box, then walk it back from one cell before its return.
-        double t_enter = 0.0;
-        for (int axis = 0; axis < 2; ++axis) {
-            if (std::abs(d[axis]) < 1e-12) continue;
-            const double a = (lo[axis] - scan.sensor[axis]) / d[axis];
-            const double b = (hi[axis] - scan.sensor[axis]) / d[axis];
-            t_enter = std::max(t_enter, std::min(a, b));
+        const std::size_t stride = std::max<std::size_t>(1, scan.points.size() / wanted);
+        for (std::size_t i = 0; i < scan.points.size(); i += stride) {
+            const Eigen::Vector3f& p = scan.points[i];
+            const Eigen::Vector3d q = p.cast<double>();
+            const Eigen::Vector3d d = q - scan.sensor;
+            const double horizontal = d.head<2>().norm();
+            if (horizontal < step) continue;
+            // Clip the ray's xy to the grid box, then walk it back from one cell before its return.
+            double t_enter = 0.0;
+            for (int axis = 0; axis < 2; ++axis) {
+                if (std::abs(d[axis]) < 1e-12) continue;
+                const double a = (lo[axis] - scan.sensor[axis]) / d[axis];
+                const double b = (hi[axis] - scan.sensor[axis]) / d[axis];
+                t_enter = std::max(t_enter, std::min(a, b));
+            }
+            const double t_stop = 1.0 - grid.cell_m / horizontal;
+            const double dt = step / horizontal;
+            for (double t = t_stop; t > t_enter; t -= dt) {
+                const Eigen::Vector3d x = scan.sensor + t * d;
+                const int cell = grid.CellOf(x.x(), x.y());
+                if (cell < 0) continue;
+                auto& l = lowest[static_cast<std::size_t>(cell)];
+                if (x.z() >= l[2]) continue;
+                l[2] = x.z();
+                if (l[2] < l[1]) std::swap(l[1], l[2]);
+                if (l[1] < l[0]) std::swap(l[0], l[1]);
+            }
         }
-        const double t_stop = 1.0 - grid.cell_m / horizontal;
-        const double dt = step / horizontal;
-        for (double t = t_stop; t > t_enter; t -= dt) {
-            const Eigen::Vector3d x = scan.sensor + t * d;
-            const int cell = grid.CellOf(x.x(), x.y());
-            if (cell < 0) continue;
-            auto& l = lowest[static_cast<std::size_t>(cell)];
-            if (x.z() >= l[2]) continue;
-            l[2] = x.z();
-            if (l[2] < l[1]) std::swap(l[1], l[2]);
-            if (l[1] < l[0]) std::swap(l[0], l[1]);
-        }
-    }
     }
     std::vector<double> ceiling(lowest.size());
     for (std::size_t k = 0; k < lowest.size(); ++k) ceiling[k] = lowest[k][2];

@@ -65,7 +65,8 @@ std::vector<double> BoundUnobservedEmpty(const Grid& grid, const std::vector<dou
         if (grid.weight[k] <= 0.0 || empty.support[k] > 0 || !std::isfinite(ceiling[k])) continue;
         std::vector<float> z;
         for (int i = bins.start[k]; i < bins.start[k + 1]; ++i) {
-            z.push_back(points[static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)])].z());
+            z.push_back(
+                points[static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)])].z());
         }
         const double hi = std::min(ceiling[k], 0.0);
         double lo = empty.height[k];
@@ -151,8 +152,9 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
     }
     const WeightedCloud column = SelectColumn(scan, opening, empty_min_z, config);
     const double cell_m =
-        config.cell_m > 0.0 ? config.cell_m
-                            : AutomaticCellSize(CountInside(column.points, opening), opening, config);
+        config.cell_m > 0.0
+            ? config.cell_m
+            : AutomaticCellSize(CountInside(column.points, opening), opening, config);
     VolumeResult result;
     result.grid = MakeGrid(opening, cell_m);
     const Grid& grid = result.grid;
@@ -160,8 +162,8 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
                              EstimateEmptySurface(grid, empty_inside, config));
     const SurfaceMap& empty = empty_surface.map;
     const std::vector<double>& unobserved_sigma = empty_surface.unobserved_sigma_m;
-    SOILVOL_ASSIGN_OR_RETURN(
-        SurfaceMap soil, EstimateSurface(grid, column.points, column.weights, config.surface));
+    SOILVOL_ASSIGN_OR_RETURN(SurfaceMap soil,
+                             EstimateSurface(grid, column.points, column.weights, config.surface));
     CapInterpolatedHeap(grid, opening, config.max_heap_slope, soil);
     BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, {column}), empty, soil);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());

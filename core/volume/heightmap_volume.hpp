@@ -16,9 +16,9 @@ struct HeightmapConfig {
     double cell_m = 0.0;                   ///< grid cell side; 0 = automatic from point density
     double target_points_per_cell = 16.0;  ///< density target of the automatic cell size
     double min_cell_m = 0.02;
-    double max_cell_fraction = 0.25;  ///< automatic cells stay below this share of the opening
-    double max_heap_slope = 1.0;      ///< scan points above a heap this steep are ignored
-    double column_margin_m = 0.15;    ///< points this far below the empty surface are ignored
+    double max_cell_fraction = 0.25;     ///< automatic cells stay below this share of the opening
+    double max_heap_slope = 1.0;         ///< scan points above a heap this steep are ignored
+    double column_margin_m = 0.15;       ///< points this far below the empty surface are ignored
     cloud::RayWeightConfig ray_weights;  ///< how the points' height weights are computed
     SurfaceConfig surface;
 };

@@ -19,8 +19,9 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Sample {
-    double dx, dy, z;  // offset from the cell's anchor [m], height [m]
-    double w;          // kernel x ray weight x area weight
+    double dx, dy, z;   // offset from the cell's anchor [m], height [m]
+    double w;           // kernel x ray weight x area weight
+    bool tells = true;  // its ray weight is above zero: it says something of the height
 };
 
 struct PlaneFit {
@@ -118,11 +119,11 @@ PlaneFit RobustFit(const std::vector<Sample>& samples, double sigma, double wind
 }
 
 // Fine bins of a third of a cell: the area [m^2] each point stands for (its bin's area shared
-// among the bin's points) and which bins hold a point that tells a height.
+// among the bin's points).
 constexpr int kBinsPerCell = 3;
 struct FineBins {
-    std::vector<double> area;        // per point
-    std::vector<uint8_t> occupied;  // per fine bin, row-major over (3 cols) x (3 rows)
+    std::vector<double> area;       // per point
+    std::vector<uint8_t> occupied;  // per fine bin: holds a return that tells a height
 };
 
 FineBins MakeFineBins(const Grid& grid, const Cloud& points, const std::vector<float>& weights) {
@@ -138,7 +139,8 @@ FineBins MakeFineBins(const Grid& grid, const Cloud& points, const std::vector<f
         if (!(fx >= 0.0 && fy >= 0.0 && fx < cols && fy < rows)) continue;
         bin[i] = static_cast<int>(fy) * cols + static_cast<int>(fx);
         ++count[static_cast<std::size_t>(bin[i])];
-        if (weights.empty() || weights[i] > 0.01f) out.occupied[static_cast<std::size_t>(bin[i])] = 1;
+        if (weights.empty() || weights[i] > 0.01f)
+            out.occupied[static_cast<std::size_t>(bin[i])] = 1;
     }
     out.area.assign(points.size(), 0.0);
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -148,7 +150,7 @@ FineBins MakeFineBins(const Grid& grid, const Cloud& points, const std::vector<f
 }
 
 // Share of cell k's area inside the opening that occupied fine bins cover.
-double ObservedShare(const Grid& grid, const FineBins& bins, int cell) {
+double OccupiedShare(const Grid& grid, const FineBins& bins, int cell) {
     const int cols = grid.cols * kBinsPerCell;
     const int c0 = (cell % grid.cols) * kBinsPerCell, r0 = (cell / grid.cols) * kBinsPerCell;
     int occupied = 0;
@@ -162,9 +164,22 @@ double ObservedShare(const Grid& grid, const FineBins& bins, int cell) {
     return inside > 0.0 ? std::min(1.0, occupied * bin_m * bin_m / inside) : 0.0;
 }
 
+// Area [m^2] of the opening covered by the window around `cell`.
+double WindowArea(const Grid& grid, int cell, int half) {
+    const int col = cell % grid.cols, row = cell / grid.cols;
+    double area = 0.0;
+    for (int r = std::max(0, row - half); r <= std::min(grid.rows - 1, row + half); ++r) {
+        for (int c = std::max(0, col - half); c <= std::min(grid.cols - 1, col + half); ++c) {
+            area += grid.weight[static_cast<std::size_t>(r * grid.cols + c)];
+        }
+    }
+    return area;
+}
+
 struct WeightedPoints {
     const Cloud& points;
-    std::vector<double> w;  // ray weight x area weight
+    std::vector<double> w;          // ray weight x area weight
+    const std::vector<float>& ray;  // ray weights; empty: all 1
 };
 
 // The samples of the window of (2 half + 1)^2 cells around `cell`, weighted by a Gaussian in
@@ -185,7 +200,8 @@ std::vector<Sample> GatherWindow(const Grid& grid, const CellBins& bins, const W
                 const double dx = static_cast<double>(p.x()) - centre.x();
                 const double dy = static_cast<double>(p.y()) - centre.y();
                 samples.push_back({dx, dy, static_cast<double>(p.z()),
-                                   wp.w[j] * std::exp(-(dx * dx + dy * dy) * inv_two_h2)});
+                                   wp.w[j] * std::exp(-(dx * dx + dy * dy) * inv_two_h2),
+                                   wp.ray.empty() || wp.ray[j] > 0.01f});
             }
         }
     }
@@ -237,12 +253,12 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
                                            const std::vector<float>& weights,
                                            const SurfaceConfig& config) {
     if (!weights.empty() && weights.size() != points.size()) {
-        return absl::InvalidArgumentError(absl::StrCat("surface: ", weights.size(),
-                                                       " weights for ", points.size(), " points"));
+        return absl::InvalidArgumentError(
+            absl::StrCat("surface: ", weights.size(), " weights for ", points.size(), " points"));
     }
     const CellBins bins = BinPoints(grid, points);
     const FineBins fine = MakeFineBins(grid, points, weights);
-    WeightedPoints wp{points, fine.area};
+    WeightedPoints wp{points, fine.area, weights};
     for (std::size_t i = 0; i < points.size(); ++i) {
         wp.w[i] *= weights.empty() ? 1.0 : static_cast<double>(weights[i]);
     }
@@ -258,15 +274,28 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
     map.support.assign(num_cells, 0);
     map.observed.assign(num_cells, 0.0);
     const double sigma = map.noise_sigma_m;
+    const bool fine_bins_resolve =
+        density > 0.0 && grid.cell_m / kBinsPerCell >= 1.0 / std::sqrt(density);
     const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();
 #pragma omp parallel for schedule(dynamic, 8) num_threads(threads)
     for (int cell = 0; cell < grid.NumCells(); ++cell) {
         const auto k = static_cast<std::size_t>(cell);
         if (grid.weight[k] <= 0.0) continue;
-        map.observed[k] = ObservedShare(grid, fine, cell);
-        if (map.observed[k] < config.min_observed_fraction) continue;
         const std::vector<Sample> samples = GatherWindow(grid, bins, wp, cell, half);
-        if (samples.size() < 3) continue;
+        // Measured when returns that tell a height cover a fair share of the cell (its fine
+        // bins), or, for cells finer than the returns' spacing, when its window holds a fair
+        // share of the returns the density puts there. A cell at the edge of a shadow, or a few
+        // stray returns over a hidden floor, is a hole.
+        if (fine_bins_resolve) {
+            map.observed[k] = OccupiedShare(grid, fine, cell);
+            if (map.observed[k] < config.min_observed_fraction || samples.size() < 3) continue;
+        } else {
+            const double expected = density * WindowArea(grid, cell, half);
+            const auto telling = static_cast<double>(std::count_if(
+                samples.begin(), samples.end(), [](const Sample& s) { return s.tells; }));
+            map.observed[k] = expected > 0.0 ? std::min(1.0, telling / expected) : 0.0;
+            if (telling < std::max(3.0, config.min_observed_fraction * expected)) continue;
+        }
         double scale = sigma;
         const PlaneFit fit = RobustFit(samples, sigma, window_m, config, &scale);
         if (!fit.ok) continue;
@@ -316,8 +345,9 @@ void FillHoles(const Grid& grid, SurfaceMap& map) {
                     const auto k = static_cast<std::size_t>(r * grid.cols + c);
                     if (grid.weight[k] <= 0.0 || std::isnan(map.height[k])) continue;
                     const Eigen::Vector2d d = grid.anchor[k] - centre;
+                    // Cauchy weights: no cell, however far, weighs nothing.
                     samples.push_back({d.x(), d.y(), map.height[k],
-                                       std::exp(-d.squaredNorm() / (2.0 * sigma * sigma))});
+                                       1.0 / (1.0 + d.squaredNorm() / (sigma * sigma))});
                 }
             }
             if (samples.size() < 6 && reach < std::max(grid.cols, grid.rows)) continue;

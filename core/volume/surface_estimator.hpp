@@ -18,11 +18,13 @@ struct SurfaceConfig {
     int max_window_cells = 9;         ///< widest fit window, in cells (odd)
     double tukey_sigmas = 4.685;      ///< Tukey biweight limit, in local residual sigmas
     int robust_iterations = 4;
-    /// A cell is measured when points cover this share of its area (fine bins of a third of a
-    /// cell); others are holes, filled from their neighbours.
+    /// A cell is measured when returns that tell a height cover this share of its area (fine
+    /// bins of a third of a cell), or, for cells finer than the returns' spacing, when its fit
+    /// window holds this share of the returns the density puts there; others are holes, filled
+    /// from their neighbours.
     double min_observed_fraction = 0.25;
-    double max_slope = 8.0;         ///< fitted planes steeper than this (83 deg) fall back to a level
-    double min_noise_m = 0.002;     ///< floor on the estimated noise sigma
+    double max_slope = 8.0;      ///< fitted planes steeper than this (83 deg) fall back to a level
+    double min_noise_m = 0.002;  ///< floor on the estimated noise sigma
     double default_noise_m = 0.02;  ///< used when too few points to estimate the noise
     int num_threads = 0;            ///< 0 = all cores
 };
@@ -32,7 +34,7 @@ struct SurfaceMap {
     std::vector<double> height;  ///< z [m] at each cell's anchor; NaN for cells outside the opening
     std::vector<double> variance;  ///< [m^2] of each height
     std::vector<int> support;      ///< points in the cell behind each height; 0 = interpolated
-    std::vector<double> observed;  ///< share of each cell's area that points cover
+    std::vector<double> observed;  ///< per cell: the share of it the returns cover
     double noise_sigma_m = 0.0;    ///< robust noise estimate along z
     int window_cells = 1;          ///< side of the fit window, in cells
     int measured = 0;

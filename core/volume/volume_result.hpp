@@ -28,9 +28,9 @@ struct CellCounts {
 
 /// Soil volume over a grid, with the per-cell heightmap behind it.
 struct VolumeResult {
-    double volume_m3 = 0.0;       ///< max(0, raw_volume_m3)
-    double raw_volume_m3 = 0.0;   ///< signed sum of cell volumes, noise not clipped
-    double uncertainty_m3 = 0.0;  ///< 1-sigma from the per-cell statistics
+    double volume_m3 = 0.0;                  ///< max(0, raw_volume_m3)
+    double raw_volume_m3 = 0.0;              ///< signed sum of cell volumes, noise not clipped
+    double uncertainty_m3 = 0.0;             ///< 1-sigma from the per-cell statistics
     double unobserved_uncertainty_m3 = 0.0;  ///< its part from empty surface no scan saw
     Grid grid;
     std::vector<double> soil_height_m;  ///< per cell, soil surface minus empty surface; NaN outside
@@ -39,8 +39,8 @@ struct VolumeResult {
     double scan_observed_share = 0.0;   ///< of the opening's area, measured in the scan
     double empty_observed_share = 0.0;  ///< of the opening's area, measured in the empty model
     double scan_noise_sigma_m = 0.0;    ///< robust noise along z in the scan's cells
-    double model_noise_sigma_m = 0.0;  ///< same for the empty model
-    int window_cells = 1;              ///< side of the fit window, in cells
+    double model_noise_sigma_m = 0.0;   ///< same for the empty model
+    int window_cells = 1;               ///< side of the fit window, in cells
 };
 
 }  // namespace soilvol::volume

@@ -87,6 +87,37 @@ class RestFlow(unittest.TestCase):
         self.assertEqual(err["code"], 5)
         self.assertEqual(self.server.rest("DELETE", "/v1/containers/flow-box")[0], 404)
 
+    def test_several_empty_scans_register_one_model(self):
+        # The second view: the box moved and turned, its corners marked in that scan.
+        yaw, shift = 4.0, (0.05, 0.03, 0.0)
+        c, s_ = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+        moved = [(c * x - s_ * y + shift[0], s_ * x + c * y + shift[1], z + shift[2])
+                 for x, y, z in box_scene.opening_corners()]
+        second = box_scene.encode_ply(box_scene.box_scan(0.0, seed=3, shift=shift, yaw_deg=yaw))
+        status, container = self.register(
+            "two-view-box", additionalScans=[{"scan": cloud_scan(second),
+                                              "opening": corners_json(moved)}])
+        self.assertEqual(status, 200, container)
+        self.assertEqual(container["emptyScans"], 2)
+        self.assertGreater(container["observedShare"], 0.9)
+        self.assertAlmostEqual(container["struckCapacityM3"], box_scene.STRUCK_M3,
+                               delta=0.02 * box_scene.STRUCK_M3)
+        status, est = self.estimate("two-view-box", 0.3)
+        self.assertEqual(status, 200, est)
+        self.assertGreater(est["coverage"]["modelObservedShare"], 0.9)
+        self.assertGreater(est["coverage"]["scanObservedShare"], 0.9)
+        self.assertLess(abs(est["volumeM3"] - box_scene.INNER_L * box_scene.INNER_W * 0.3),
+                        TOLERANCE_OF_STRUCK * box_scene.STRUCK_M3)
+        # Too many scans, or a later one that is not a cloud, name the field.
+        status, err = self.register("too-many", additionalScans=[{"scan": cloud_scan(second)}] * 8)
+        self.assertEqual(status, 400, err)
+        self.assertIn("additional_scans", err["message"])
+        status, err = self.register("bad-corners", additionalScans=[
+            {"scan": cloud_scan(second), "opening": {"corners": corners_json(moved)["corners"][:3]}}])
+        self.assertEqual(status, 400, err)
+        self.assertIn("additional_scans[0]", err["message"])
+        self.assertEqual(self.server.rest("DELETE", "/v1/containers/two-view-box")[0], 200)
+
     def test_existing_id_is_409_unless_overwrite(self):
         self.assertEqual(self.register("dup-box")[0], 200)
         status, err = self.register("dup-box")

@@ -51,8 +51,7 @@ Cloud Transformed(const Cloud& c, const Pose& T, double sigma, unsigned seed) {
     std::normal_distribution<double> noise(0.0, sigma);
     Cloud out;
     for (const auto& p : c) {
-        out.push_back((T * p.cast<double>() +
-                       Eigen::Vector3d(noise(rng), noise(rng), noise(rng)))
+        out.push_back((T * p.cast<double>() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)))
                           .cast<float>());
     }
     return out;
@@ -89,9 +88,9 @@ TEST(IcpTest, RecoversSmallPoseChangesWithinTheNoise) {
 TEST(IcpTest, CovarianceIsSmallForAShapeThatPinsThePoseAndLargeForAPlane) {
     const Cloud object = Object();
     const Source source = MakeSource(object);
-    const AlignResult box = Align(source.points, source.normals,
-                                  Transformed(object, Pose::Identity(), 0.005, 1), Pose::Identity(),
-                                  AlignConfig{});
+    const AlignResult box =
+        Align(source.points, source.normals, Transformed(object, Pose::Identity(), 0.005, 1),
+              Pose::Identity(), AlignConfig{});
     const double box_sigma = std::sqrt(box.covariance.bottomRightCorner<3, 3>().trace());
     EXPECT_GT(box_sigma, 0.0);
     EXPECT_LT(box_sigma, 0.002);
@@ -101,9 +100,9 @@ TEST(IcpTest, CovarianceIsSmallForAShapeThatPinsThePoseAndLargeForAPlane) {
         for (double y = -1.0; y <= 1.0; y += 0.01) plane.emplace_back(x, y, 0.0);
     }
     const Source flat = MakeSource(plane);
-    const AlignResult r = Align(flat.points, flat.normals, Transformed(plane, Pose::Identity(),
-                                                                      0.005, 2),
-                                Pose::Identity(), AlignConfig{});
+    const AlignResult r =
+        Align(flat.points, flat.normals, Transformed(plane, Pose::Identity(), 0.005, 2),
+              Pose::Identity(), AlignConfig{});
     const absl::Status gate = CheckAlignment(r, AlignGate{});
     EXPECT_EQ(gate.code(), absl::StatusCode::kFailedPrecondition);
     EXPECT_NE(gate.message().find("pose 1-sigma"), std::string::npos);
@@ -123,8 +122,8 @@ TEST(IcpTest, ReturnsInTheContentColumnAreNotContainer) {
     for (double x = -0.58; x <= 0.58; x += 0.01) {
         for (double y = -0.38; y <= 0.38; y += 0.01) scan.emplace_back(x, y, -0.2);
     }
-    const AlignResult with = Align(source.points, source.normals, scan, Pose::Identity(),
-                                   AlignConfig{}, &column);
+    const AlignResult with =
+        Align(source.points, source.normals, scan, Pose::Identity(), AlignConfig{}, &column);
     EXPECT_LT(with.T_scan_container.translation().norm(), 0.003);
     EXPECT_GT(with.fitness, 0.8);
 }

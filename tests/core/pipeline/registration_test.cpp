@@ -29,10 +29,10 @@ TEST(RegistrationTest, ASecondViewFillsWhatTheFirstHid) {
     const auto one = RegisterContainer(first.opening_corners_scan, {{first.points, std::nullopt}},
                                        RegistrationConfig{});
     ASSERT_TRUE(one.ok()) << one.status();
-    const auto two =
-        RegisterContainer(first.opening_corners_scan,
-                          {{first.points, std::nullopt}, {turned.points, turned.opening_corners_scan}},
-                          RegistrationConfig{});
+    const auto two = RegisterContainer(
+        first.opening_corners_scan,
+        {{first.points, std::nullopt}, {turned.points, turned.opening_corners_scan}},
+        RegistrationConfig{});
     ASSERT_TRUE(two.ok()) << two.status();
     ASSERT_EQ(two->alignments.size(), 1u);
     EXPECT_EQ(two->model.cavity.size(), 2u);

@@ -5,26 +5,12 @@
 #include "core/sim/scene.hpp"
 #include "core/sim/scene_raycaster.hpp"
 #include "core/sim/soil_surface.hpp"
+#include "tests/core/sim/inner_surface_integral.hpp"
 
 namespace soilvol::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// Midpoint integral of -InnerSurfaceZ over the opening.
-double IntegrateInnerSurface(const ContainerGeometry& c, double cell_m) {
-    const int cols = static_cast<int>(std::ceil(c.opening_length_m / cell_m));
-    const int rows = static_cast<int>(std::ceil(c.opening_width_m / cell_m));
-    const double dx = c.opening_length_m / cols, dy = c.opening_width_m / rows;
-    double sum = 0.0;
-    for (int j = 0; j < rows; ++j) {
-        for (int i = 0; i < cols; ++i) {
-            sum -= c.InnerSurfaceZ(-0.5 * c.opening_length_m + (i + 0.5) * dx,
-                                   -0.5 * c.opening_width_m + (j + 0.5) * dy);
-        }
-    }
-    return sum * dx * dy;
-}
 
 // Angle [deg] from the opening plane of the profile's first (front) and last (back) segments.
 std::pair<double, double> WallAngles(const ContainerGeometry& c) {

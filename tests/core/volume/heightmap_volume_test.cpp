@@ -1,12 +1,12 @@
 #include "core/volume/heightmap_volume.hpp"
 
-#include "core/cloud/ray_weights.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <functional>
 #include <random>
+
+#include "core/cloud/ray_weights.hpp"
 
 namespace soilvol::volume {
 namespace {
@@ -117,7 +117,8 @@ TEST(HeightmapVolumeTest, VerticalWallReturnsTellNoHeight) {
             const Eigen::Vector3d q = p + noise(rng) * (p - kSensor).normalized();
             if (box.Contains(q.head<2>())) cloud.push_back(q.cast<float>());
         };
-        for (int i = 0; i < 6000; ++i) add({-1.0 + 2.0 * u(rng), -0.3 + 0.6 * u(rng), top_of_contents});
+        for (int i = 0; i < 6000; ++i)
+            add({-1.0 + 2.0 * u(rng), -0.3 + 0.6 * u(rng), top_of_contents});
         for (int i = 0; i < 3000; ++i) {
             add({-1.0 + 2.0 * u(rng), 0.3, top_of_contents * u(rng)});
         }
@@ -191,16 +192,14 @@ TEST(HeightmapVolumeTest, ScanBelowTheEmptySurfaceIsCountedCellByCell) {
     const Cloud empty = Sample(floor, 20000, 0.025, 21);
     HeightmapConfig config;
     config.cell_m = 0.1;
-    const auto sunk = HeightmapVolume(Seen(empty, 0.025),
-                                      Seen(Sample([](double, double) { return -0.7; }, 20000,
-                                                  0.025, 22),
-                                           0.025)[0],
-                                      kOpening, config);
+    const auto sunk = HeightmapVolume(
+        Seen(empty, 0.025),
+        Seen(Sample([](double, double) { return -0.7; }, 20000, 0.025, 22), 0.025)[0], kOpening,
+        config);
     ASSERT_TRUE(sunk.ok()) << sunk.status();
     EXPECT_GT(sunk->cells.below_empty, 0.9 * sunk->cells.both_measured);
-    const auto right =
-        HeightmapVolume(Seen(empty, 0.025), Seen(Sample(floor, 20000, 0.025, 23), 0.025)[0],
-                        kOpening, config);
+    const auto right = HeightmapVolume(
+        Seen(empty, 0.025), Seen(Sample(floor, 20000, 0.025, 23), 0.025)[0], kOpening, config);
     ASSERT_TRUE(right.ok()) << right.status();
     EXPECT_LT(right->cells.below_empty, 0.02 * right->cells.both_measured);
 }
