@@ -70,7 +70,9 @@ TEST(RegistrationTest, ALaterScanOfSomethingElseIsRefusedNamingIt) {
 }
 
 TEST(RegistrationTest, NoScanIsInvalidArgument) {
-    const auto r = RegisterContainer(Corners{}, {}, RegistrationConfig{});
+    const Corners corners = {Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(),
+                             Eigen::Vector3d(1.0, 1.0, 0.0), Eigen::Vector3d::UnitY()};
+    const auto r = RegisterContainer(corners, {}, RegistrationConfig{});
     EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
 }
 
