@@ -391,7 +391,8 @@ class GracefulShutdown(unittest.TestCase):
         # A small scan on 5 mm cells: over half a second each on one worker.
         request = pb.EstimateVolumeRequest(container_id="slow-box", scan=cloud(filled_box(0.2)),
                                            grid_cell_m=0.005)
-        futures = [client.stub.EstimateVolume.future(request, timeout=60) for _ in range(count)]
+        futures = [client.stub.EstimateVolume.future(request, timeout=60 * TIME_SCALE)
+                   for _ in range(count)]
         # The gauges are set as calls are accepted: one running and the rest queued.
         accepted = wait_until(lambda: server_metric(server, "soilvol_in_flight") +
                               server_metric(server, "soilvol_queue_depth") >= count, 10, 0.01)
@@ -399,7 +400,8 @@ class GracefulShutdown(unittest.TestCase):
         return request, futures
 
     def test_in_flight_calls_finish(self):
-        grace_s = 10 * TIME_SCALE
+        # Each call takes about 1 s here (15-20 s under the sanitizers): the grace covers three.
+        grace_s = 20 * TIME_SCALE
         with Server(args=["--workers", "1", "--shutdown-grace-s", str(grace_s)]) as server:
             client = Client(server)
             request, futures = self.start_estimates(server, client, 3)
