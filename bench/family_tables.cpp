@@ -187,12 +187,8 @@ int FamilyCase(const FamilyCaseOptions& options, std::ostream& out) {
     {
         align::AlignConfig ac;
         ac.max_iterations = 0;
-        ac.smoothing_radius_m = std::max(ac.smoothing_radius_m, reg.model->smoothing_radius_m);
         const cloud::PreprocessResult pre = cloud::Preprocess(scene.points, {});
-        const align::ContentColumn column = model::ContentColumnOf(*reg.model);
-        const auto at_truth =
-            align::Align(reg.model->alignment_points, reg.model->alignment_normals, pre.points,
-                         scene.T_scan_container, ac, &column);
+        const auto at_truth = model::AlignModel(*reg.model, pre.points, scene.T_scan_container, ac);
         out << "at the true pose: fitness " << at_truth.fitness << " rmse " << at_truth.rmse_m
             << " targets " << at_truth.target_points << " model points "
             << reg.model->alignment_points.size() << "\n";

@@ -116,6 +116,15 @@ align::ContentColumn ContentColumnOf(const ContainerModel& model) {
     return {model.opening.polygon, model.column_top_m, band, 0.0};
 }
 
+align::AlignResult AlignModel(const ContainerModel& model, const Cloud& scan, const Pose& initial,
+                              const align::AlignConfig& config) {
+    align::AlignConfig align = config;
+    align.smoothing_radius_m = std::max(align.smoothing_radius_m, model.smoothing_radius_m);
+    const align::ContentColumn column = ContentColumnOf(model);
+    return align::Align(model.alignment_points, model.alignment_normals, scan, initial, align,
+                        &column);
+}
+
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points) {
     if (model.structure.empty() || model.structure_radius_m <= 0.0) return points;
     const cloud::KdTree tree(model.structure);

@@ -80,6 +80,11 @@ Eigen::Vector3d SensorInContainer(const Pose& T_scan_container, const Polygon2d&
 /// Where the model's contents can be (alignments leave returns there out).
 align::ContentColumn ContentColumnOf(const ContainerModel& model);
 
+/// Aligns the model's outside to `scan` (scan frame, preprocessed) from `initial`, smoothing the
+/// scan at least as widely as the model's alignment set was and leaving its contents out.
+align::AlignResult AlignModel(const ContainerModel& model, const Cloud& scan, const Pose& initial,
+                              const align::AlignConfig& config);
+
 /// The points of `points` (container frame) farther than the model's structure radius from its
 /// structure, with their weights.
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points);

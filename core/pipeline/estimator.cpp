@@ -65,11 +65,7 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     timer.Lap();
     // Sec. 3.3: align the model's outside to the scan.
     const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
-    align::AlignConfig align = config.align;
-    align.smoothing_radius_m = std::max(align.smoothing_radius_m, model.smoothing_radius_m);
-    const align::ContentColumn column = model::ContentColumnOf(model);
-    estimate.alignment = align::Align(model.alignment_points, model.alignment_normals, pre.points,
-                                      initial, align, &column);
+    estimate.alignment = model::AlignModel(model, pre.points, initial, config.align);
     estimate.timings.align_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
     // Sec. 3.4: grid and integrate in the container frame.

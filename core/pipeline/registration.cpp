@@ -10,11 +10,11 @@ namespace soilvol::pipeline {
 namespace {
 
 // Where alignment of a later scan starts: its own corners when marked, else the first pose.
-absl::StatusOr<Pose> InitialPose(const EmptyScan& scan, const model::ContainerModel& model,
+absl::StatusOr<Pose> InitialPose(const EmptyScan& scan, const Cloud& preprocessed,
+                                 const model::ContainerModel& model,
                                  const model::ModelConfig& config, std::size_t index) {
     if (!scan.corners) return model.opening.T_scan_container;
-    const cloud::PreprocessResult pre = cloud::Preprocess(scan.points, config.preprocess);
-    auto opening = model::MakeOpening(*scan.corners, pre.points, config.opening);
+    auto opening = model::MakeOpening(*scan.corners, preprocessed, config.opening);
     if (!opening.ok()) {
         return absl::InvalidArgumentError(
             absl::StrCat("empty scan ", index + 1, ": ", opening.status().message()));
@@ -36,16 +36,12 @@ absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
     SOILVOL_ASSIGN_OR_RETURN(out.model,
                              model::BuildContainerModel(scans[0].points, corners, config.model));
     for (std::size_t i = 1; i < scans.size(); ++i) {
-        SOILVOL_ASSIGN_OR_RETURN(const Pose initial,
-                                 InitialPose(scans[i], out.model, config.model, i));
-        align::AlignConfig align = config.align;
-        align.smoothing_radius_m = std::max(align.smoothing_radius_m, out.model.smoothing_radius_m);
         const cloud::PreprocessResult pre =
             cloud::Preprocess(scans[i].points, config.model.preprocess);
-        const align::ContentColumn column = model::ContentColumnOf(out.model);
+        SOILVOL_ASSIGN_OR_RETURN(const Pose initial,
+                                 InitialPose(scans[i], pre.points, out.model, config.model, i));
         align::AlignResult alignment =
-            align::Align(out.model.alignment_points, out.model.alignment_normals, pre.points,
-                         initial, align, &column);
+            model::AlignModel(out.model, pre.points, initial, config.align);
         if (const absl::Status gate = align::CheckAlignment(alignment, config.gate); !gate.ok()) {
             return absl::FailedPreconditionError(
                 absl::StrCat("empty scan ", i + 1, ": ", gate.message()));
