@@ -125,6 +125,7 @@ int main(int argc, char** argv) {
                       app.add_subcommand("table2", "paper Table 2: grid sizes"),
                       app.add_subcommand("containers", "other containers"),
                       app.add_subcommand("families", "every container family, random shapes"),
+                      app.add_subcommand("moves", "large container moves, with and without a pose"),
                       app.add_subcommand("robustness", "sensor and set-up variations"),
                       app.add_subcommand("stereo", "rendered stereo pairs at several fills")}) {
         cmd->add_option("--seeds", seeds, "seeds per row")
@@ -179,6 +180,7 @@ int main(int argc, char** argv) {
     if (name == "table2" || name == "all") md << GridTable(seeds, std::cout);
     if (name == "containers" || name == "all") md << ContainerTable(seeds, std::cout);
     if (name == "families" || name == "all") md << FamilyTable(seeds, std::cout);
+    if (name == "moves" || name == "all") md << MovesTable(std::min(seeds, 2), std::cout);
     if (name == "robustness" || name == "all") md << RobustnessTable(seeds, std::cout);
     if (name == "speed" || name == "all") md << SpeedTable(reps, std::cout);
     if (name == "stereo" || name == "all") md << StereoFillTable(std::min(seeds, 3), std::cout);

@@ -45,6 +45,7 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
     out.register_ms = timer.Lap();
     if (reg.ok()) {
         out.model = std::move(reg->model);
+        out.sim_to_model = empty.T_scan_container.inverse() * out.model->opening.T_scan_container;
     } else {
         out.model = reg.status();
     }
@@ -57,6 +58,7 @@ sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t
     spec.shape = setup.shape;
     spec.sensor = setup.sensor;
     spec.jitter = setup.jitter;
+    spec.move = setup.move;
     spec.soil.fill_height_m = fill_m;
     spec.soil.perturbation_m = setup.perturbation_m;
     spec.soil_seed = seed;

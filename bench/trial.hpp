@@ -22,6 +22,9 @@ struct Setup {
     /// Empty scans the model is registered from; each after the first sees the container
     /// turned half way round (the sensor's azimuth + 180 deg), its corners marked.
     int empty_scans = 1;
+    /// A fixed move of the container before each filled scan (its own frame), on top of the
+    /// jitter.
+    Pose move = Pose::Identity();
 };
 
 /// The paper's time-of-flight sensor (4 cm noise, 0.5 deg), placed 2.5-3 m away so that each
@@ -33,6 +36,9 @@ struct RegisteredModel {
     absl::StatusOr<model::ContainerModel> model;
     double true_struck_m3 = 0.0;
     double register_ms = 0.0;
+    /// The model's frame in the simulator's container frame: a filled scan's true pose in the
+    /// model frame is its T_scan_container times this.
+    Pose sim_to_model = Pose::Identity();
 };
 RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed);
 

@@ -45,6 +45,46 @@ absl::Status CheckContents(const volume::VolumeResult& volume, const EstimateCon
         100.0 * share, volume.cells.below_empty, both, 100.0 * config.max_below_empty_share));
 }
 
+// 1-sigma of the volume from the alignment's full pose covariance: the covariance, over a left
+// perturbation in the scan frame, carried into the container frame (adjoint of the inverse
+// pose) and projected on the volume's pose gradient.
+double AlignmentSigma(const volume::VolumeResult& volume, const align::AlignResult& alignment) {
+    const Eigen::Matrix3d R = alignment.T_scan_container.linear();
+    const Eigen::Vector3d p = alignment.T_scan_container.translation();
+    const Eigen::Vector3d q = -R.transpose() * p;
+    Eigen::Matrix3d q_hat;
+    q_hat << 0.0, -q.z(), q.y(), q.z(), 0.0, -q.x(), -q.y(), q.x(), 0.0;
+    Eigen::Matrix<double, 6, 6> adjoint = Eigen::Matrix<double, 6, 6>::Zero();
+    adjoint.topLeftCorner<3, 3>() = R.transpose();
+    adjoint.bottomLeftCorner<3, 3>() = q_hat * R.transpose();
+    adjoint.bottomRightCorner<3, 3>() = R.transpose();
+    const Eigen::Matrix<double, 6, 6> covariance =
+        adjoint * alignment.covariance * adjoint.transpose();
+    const Eigen::Matrix<double, 6, 1> g = volume::VolumePoseGradient(volume);
+    return std::sqrt(std::max(0.0, g.dot(covariance * g)));
+}
+
+// An answer whose 1-sigma exceeds the budget is not an answer: the caller gets the figures and
+// what would help instead of a number that may be off by more than twice the budget.
+absl::Status CheckUncertainty(const VolumeEstimate& estimate, const model::ContainerModel& model,
+                              const EstimateConfig& config) {
+    if (config.method == volume::Method::kPaper || config.max_uncertainty_share <= 0.0 ||
+        model.struck_capacity_m3 <= 0.0) {
+        return absl::OkStatus();
+    }
+    const double share = estimate.uncertainty_m3 / model.struck_capacity_m3;
+    if (share <= config.max_uncertainty_share) return absl::OkStatus();
+    const volume::VolumeResult& v = estimate.volume;
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "uncertain estimate refused: 1-sigma %.1f L is %.1f%% of the struck capacity (at most "
+        "%.1f%%); the scan saw %.0f%% of the opening, the empty scans %.0f%% (unseen parts: "
+        "%.1f L); scan the contents from where more of the opening is visible, or register "
+        "more empty scans",
+        1000.0 * estimate.uncertainty_m3, 100.0 * share, 100.0 * config.max_uncertainty_share,
+        100.0 * v.scan_observed_share, 100.0 * v.empty_observed_share,
+        1000.0 * v.unobserved_uncertainty_m3));
+}
+
 }  // namespace
 
 absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
@@ -75,8 +115,9 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     estimate.timings.volume_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(CheckContents(estimate.volume, config));
     estimate.volume_m3 = estimate.volume.volume_m3;
-    const double align_m3 = model.opening.area_m2 * estimate.alignment.z_sigma_m;
+    const double align_m3 = AlignmentSigma(estimate.volume, estimate.alignment);
     estimate.uncertainty_m3 = std::hypot(estimate.volume.uncertainty_m3, align_m3);
+    SOILVOL_RETURN_IF_ERROR(CheckUncertainty(estimate, model, config));
     if (model.struck_capacity_m3 > 0.0) {
         estimate.fill_ratio_struck = estimate.volume_m3 / model.struck_capacity_m3;
     }

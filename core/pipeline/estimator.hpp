@@ -24,6 +24,10 @@ struct EstimateConfig {
     /// empty surface over more than this share of the cells both saw, the alignment is wrong
     /// and the estimate is refused (FailedPrecondition).
     double max_below_empty_share = 0.25;
+    /// An estimate whose 1-sigma exceeds this share of the struck capacity is refused
+    /// (FailedPrecondition, with the figures): the scan or the empty scans saw too little of
+    /// the opening to know. 0 = never refused for its uncertainty.
+    double max_uncertainty_share = 0.10;
     /// Container pose in the scan frame from the machine's kinematics; default: the pose it had
     /// in the empty scan.
     std::optional<Pose> initial_T_scan_container;

@@ -43,7 +43,8 @@ Scene SimulateScene(const SceneSpec& spec) {
     std::mt19937_64 rng(spec.scan_seed);
 
     Scene scene;
-    scene.T_scan_container = NominalScanPose(spec.sensor) * JitterPose(spec.jitter, &rng);
+    scene.T_scan_container =
+        NominalScanPose(spec.sensor) * spec.move * JitterPose(spec.jitter, &rng);
     for (size_t i = 0; i < container.opening_corners.size(); ++i) {
         scene.opening_corners_scan[i] = scene.T_scan_container * container.opening_corners[i];
     }

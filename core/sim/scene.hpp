@@ -124,6 +124,9 @@ struct SceneSpec {
     SoilSpec soil;
     SensorSpec sensor;
     PoseJitter jitter;
+    /// A fixed move of the container (its own frame, applied before the jitter): a bucket
+    /// curled, a body turned and shifted between the empty scan and this one.
+    Pose move = Pose::Identity();
     uint64_t soil_seed = 1;  ///< seeds the soil surface
     uint64_t scan_seed = 1;  ///< seeds the pose jitter, range noise and outliers
 };

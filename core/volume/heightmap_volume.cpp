@@ -42,14 +42,47 @@ std::size_t CountInside(const Cloud& points, const Polygon2d& opening) {
     return n;
 }
 
-// A hole next to the rim cannot hold soil above the steepest heap rising from the rim.
-void CapInterpolatedHeap(const Grid& grid, const Polygon2d& opening, double slope,
-                         SurfaceMap& soil) {
-    for (std::size_t k = 0; k < soil.height.size(); ++k) {
-        if (grid.weight[k] <= 0.0 || soil.support[k] > 0) continue;
-        const double cap = slope * opening.DistanceToBoundary(grid.anchor[k]);
-        soil.height[k] = std::min(soil.height[k], cap);
+// Chessboard distance, in cells, from each cell to the nearest measured one (two passes).
+std::vector<int> CellsToMeasured(const Grid& grid, const SurfaceMap& map) {
+    constexpr int kFar = 1 << 28;
+    std::vector<int> d(map.support.size(), kFar);
+    for (std::size_t k = 0; k < d.size(); ++k) {
+        if (grid.weight[k] > 0.0 && map.support[k] > 0) d[k] = 0;
     }
+    const auto relax = [&](int r, int c, int dr, int dc) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || cc < 0 || rr >= grid.rows || cc >= grid.cols) return;
+        int& here = d[static_cast<std::size_t>(r * grid.cols + c)];
+        here = std::min(here, d[static_cast<std::size_t>(rr * grid.cols + cc)] + 1);
+    };
+    for (int r = 0; r < grid.rows; ++r) {
+        for (int c = 0; c < grid.cols; ++c) {
+            relax(r, c, -1, -1), relax(r, c, -1, 0), relax(r, c, -1, 1), relax(r, c, 0, -1);
+        }
+    }
+    for (int r = grid.rows - 1; r >= 0; --r) {
+        for (int c = grid.cols - 1; c >= 0; --c) {
+            relax(r, c, 1, 1), relax(r, c, 1, 0), relax(r, c, 1, -1), relax(r, c, 0, 1);
+        }
+    }
+    return d;
+}
+
+// Returns' mean spacing over the opening [m] (over-estimated where they cover only part of it,
+// which only narrows what counts as unseen to what lies beyond that spacing).
+double Spacing(const Grid& grid, std::size_t points) {
+    double area = 0.0;
+    for (const double w : grid.weight) area += w;
+    return points > 0 ? std::sqrt(area / static_cast<double>(points)) : 0.0;
+}
+
+// A cell within 1.5 spacings of a measured one lies between samples (cells finer than the
+// spacing): its fill is an interpolation with the fit's own variance, not an unseen patch with
+// a range of its own. Returns scattered at random leave a gap that wide with probability
+// exp(-pi 1.5^2), 0.1%.
+bool Unseen(const std::vector<int>& cells_to_measured, std::size_t k, double cell_m,
+            double spacing_m) {
+    return cells_to_measured[k] * cell_m > 1.5 * spacing_m;
 }
 
 // The empty surface under a cell too sparsely seen to fit lies between two bounds: below, the
@@ -60,6 +93,8 @@ void CapInterpolatedHeap(const Grid& grid, const Polygon2d& opening, double slop
 std::vector<double> BoundUnobservedEmpty(const Grid& grid, const std::vector<double>& ceiling,
                                          const Cloud& points, SurfaceMap& empty) {
     const CellBins bins = BinPoints(grid, points);
+    const std::vector<int> gap = CellsToMeasured(grid, empty);
+    const double spacing = Spacing(grid, points.size());
     std::vector<double> sigma(empty.height.size(), 0.0);
     for (std::size_t k = 0; k < empty.height.size(); ++k) {
         if (grid.weight[k] <= 0.0 || empty.support[k] > 0 || !std::isfinite(ceiling[k])) continue;
@@ -73,21 +108,31 @@ std::vector<double> BoundUnobservedEmpty(const Grid& grid, const std::vector<dou
         if (z.size() >= 3) lo = std::max(lo, Median(z));
         lo = std::min(lo, hi);
         empty.height[k] = lo;
-        sigma[k] = (hi - lo) / std::sqrt(12.0);
+        if (Unseen(gap, k, grid.cell_m, spacing)) sigma[k] = (hi - lo) / std::sqrt(12.0);
     }
     return sigma;
 }
 
 // The soil surface under a cell the scan did not see continues its neighbours, between the
-// empty surface and the lowest ray that passed over it.
-void BoundUnobservedSoil(const Grid& grid, const std::vector<double>& ceiling,
-                         const SurfaceMap& empty, SurfaceMap& soil) {
+// empty surface and the lowest ray that passed over it, and under the steepest heap rising from
+// the rim. Returns each cell's 1-sigma over that range (uniform) [m]. Where no ray passed over
+// a cell (or the scan has no sensor geometry) only the heap bounds it, and the range is the
+// whole of it.
+std::vector<double> BoundUnobservedSoil(const Grid& grid, const std::vector<double>& ceiling,
+                                        const SurfaceMap& empty, const Polygon2d& opening,
+                                        double heap_slope, std::size_t points, SurfaceMap& soil) {
+    const std::vector<int> gap = CellsToMeasured(grid, soil);
+    const double spacing = Spacing(grid, points);
+    std::vector<double> sigma(soil.height.size(), 0.0);
     for (std::size_t k = 0; k < soil.height.size(); ++k) {
         if (grid.weight[k] <= 0.0 || soil.support[k] > 0) continue;
         const double floor = empty.height[k];
-        const double top = std::max(floor, ceiling[k]);
+        const double heap = heap_slope * opening.DistanceToBoundary(grid.anchor[k]);
+        const double top = std::max(floor, std::min(ceiling[k], heap));
         soil.height[k] = std::clamp(soil.height[k], floor, top);
+        if (Unseen(gap, k, grid.cell_m, spacing)) sigma[k] = (top - floor) / std::sqrt(12.0);
     }
+    return sigma;
 }
 
 }  // namespace
@@ -164,10 +209,12 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
     const std::vector<double>& unobserved_sigma = empty_surface.unobserved_sigma_m;
     SOILVOL_ASSIGN_OR_RETURN(SurfaceMap soil,
                              EstimateSurface(grid, column.points, column.weights, config.surface));
-    CapInterpolatedHeap(grid, opening, config.max_heap_slope, soil);
-    BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, {column}), empty, soil);
+    const std::vector<double> unseen_soil_sigma =
+        BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, {column}), empty, opening,
+                            config.max_heap_slope, column.points.size(), soil);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     result.soil_height_m.assign(num_cells, kNaN);
+    result.scan_surface_m.assign(num_cells, kNaN);
     result.state.assign(num_cells, CellState::kOutside);
     // Signed sum: a cell's noise below the empty surface cancels noise above it elsewhere.
     const double ks = static_cast<double>(soil.window_cells * soil.window_cells);
@@ -180,9 +227,12 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
         const double h = soil.height[k] - empty.height[k];
         const double var = ks * soil.variance[k] + ke * empty.variance[k];
         result.soil_height_m[k] = h;
+        result.scan_surface_m[k] = soil.height[k];
         result.raw_volume_m3 += w * h;
         variance += w * w * var;
-        unobserved += w * unobserved_sigma[k];
+        // Where neither surface was seen the contents lie between 0 and the scan's ceiling
+        // above the empty surface's lower bound: one range, not two.
+        unobserved += w * std::max(unobserved_sigma[k], unseen_soil_sigma[k]);
         ++result.cells.total;
         if (soil.support[k] > 0) {
             result.state[k] = CellState::kMeasured;

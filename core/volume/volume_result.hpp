@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <vector>
 
@@ -34,7 +35,8 @@ struct VolumeResult {
     double unobserved_uncertainty_m3 = 0.0;  ///< its part from empty surface no scan saw
     Grid grid;
     std::vector<double> soil_height_m;  ///< per cell, soil surface minus empty surface; NaN outside
-    std::vector<CellState> state;       ///< per cell
+    std::vector<double> scan_surface_m;  ///< per cell, the scan's surface height; NaN outside
+    std::vector<CellState> state;        ///< per cell
     CellCounts cells;
     double scan_observed_share = 0.0;   ///< of the opening's area, measured in the scan
     double empty_observed_share = 0.0;  ///< of the opening's area, measured in the empty model
@@ -42,5 +44,12 @@ struct VolumeResult {
     double model_noise_sigma_m = 0.0;   ///< same for the empty model
     int window_cells = 1;               ///< side of the fit window, in cells
 };
+
+/// d volume / d pose error [m^3 per rad, per m]: how the volume moves when the scan's points,
+/// in the container frame, are off by a small rigid motion (rotation w, translation t; a point
+/// p truly lies at p - w x p - t). Each cell's height changes by c . (p x w - t) with
+/// c = (-dF/dx, -dF/dy, 1) the scan surface's upward normal, unnormalised: a tilt lifts one
+/// side and lowers the other, a lateral shift moves walls and heap flanks through their cells.
+Eigen::Matrix<double, 6, 1> VolumePoseGradient(const VolumeResult& result);
 
 }  // namespace soilvol::volume

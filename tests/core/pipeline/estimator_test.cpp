@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
 
@@ -109,6 +110,51 @@ TEST(EstimatorTest, ScanOfSomethingElseIsRefusedByTheAlignmentGate) {
     ASSERT_FALSE(estimate.ok());
     EXPECT_EQ(estimate.status().code(), absl::StatusCode::kFailedPrecondition);
     EXPECT_NE(estimate.status().message().find("alignment rejected"), std::string::npos);
+}
+
+// The bucket curled 40 deg away from the sensor: the scan sees the outside of its floor and
+// little of the soil. Even from the true pose (kinematics), that is not an answer.
+TEST(EstimatorTest, ScanThatSeesLittleOfTheOpeningIsRefusedWithItsFigures) {
+    const model::ContainerModel model = Register(ContainerKind::kPaperBucket, 0.01);
+    sim::SceneSpec spec;
+    spec.container = ContainerKind::kPaperBucket;
+    spec.sensor = Sensor(ContainerKind::kPaperBucket, 0.01);
+    spec.soil.fill_height_m = 0.3;
+    spec.soil_seed = 11;
+    spec.scan_seed = 7;
+    spec.move.linear() =
+        Eigen::AngleAxisd(-40.0 * 3.14159265358979 / 180.0, Eigen::Vector3d::UnitX())
+            .toRotationMatrix();
+    const sim::Scene scene = sim::SimulateScene(spec);
+    const sim::Scene empty = Scan(ContainerKind::kPaperBucket, 0.0, 0.01, 1);
+    EstimateConfig config;
+    // The model frame is the empty scan's container frame moved by its registration.
+    config.initial_T_scan_container =
+        scene.T_scan_container * empty.T_scan_container.inverse() * model.opening.T_scan_container;
+    const auto estimate = EstimateVolume(model, scene.points, config);
+    ASSERT_FALSE(estimate.ok()) << "answered " << estimate->volume_m3 << " +- "
+                                << estimate->uncertainty_m3;
+    EXPECT_EQ(estimate.status().code(), absl::StatusCode::kFailedPrecondition);
+    EXPECT_NE(estimate.status().message().find("of the opening"), std::string::npos)
+        << estimate.status();
+}
+
+// The uncertainty budget: a tiny one refuses a good scan, naming the figures; 0 switches it off.
+TEST(EstimatorTest, UncertaintyBudgetRefusesWhatItCannotVouchFor) {
+    const model::ContainerModel model = Register(ContainerKind::kPaperBucket, 0.01);
+    const sim::Scene scene = Scan(ContainerKind::kPaperBucket, 0.3, 0.01, 5);
+    EstimateConfig config;
+    config.max_uncertainty_share = 1e-6;
+    const auto refused = EstimateVolume(model, scene.points, config);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition);
+    EXPECT_NE(refused.status().message().find("uncertain estimate refused: 1-sigma"),
+              std::string::npos)
+        << refused.status();
+    config.max_uncertainty_share = 0.0;
+    const auto answered = EstimateVolume(model, scene.points, config);
+    ASSERT_TRUE(answered.ok()) << answered.status();
+    EXPECT_NEAR(answered->volume_m3, scene.true_volume_m3, 2.0 * answered->uncertainty_m3);
 }
 
 TEST(EstimatorTest, EmptyScanIsInvalidArgument) {

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 
 #include "core/cloud/ray_weights.hpp"
@@ -202,6 +203,91 @@ TEST(HeightmapVolumeTest, ScanBelowTheEmptySurfaceIsCountedCellByCell) {
         Seen(empty, 0.025), Seen(Sample(floor, 20000, 0.025, 23), 0.025)[0], kOpening, config);
     ASSERT_TRUE(right.ok()) << right.status();
     EXPECT_LT(right->cells.below_empty, 0.02 * right->cells.both_measured);
+}
+
+}  // namespace
+}  // namespace soilvol::volume
+
+namespace soilvol::volume {
+namespace {
+
+// A strip of the opening the scan did not see (its rays pass over it to the soil beyond): the
+// soil there lies between the empty surface and those rays, and that range is in the
+// uncertainty. Seen everywhere, nothing is unobserved.
+TEST(HeightmapVolumeTest, HiddenStripOfSoilCarriesItsRangeAsUncertainty) {
+    const Surface floor = [](double, double) { return -0.6; };
+    const Surface soil = [](double, double) { return -0.4; };
+    const Cloud empty = Sample(floor, 20000, 0.0, 5);
+    const Cloud full = Sample(soil, 20000, 0.0, 6);
+    Cloud scan;
+    for (const auto& p : full) {
+        if (p.y() > -0.15f) scan.push_back(p);
+    }
+    HeightmapConfig config;
+    config.cell_m = 0.05;
+    const auto seen_all = HeightmapVolume(Seen(empty, 0.0), Seen(full, 0.0)[0], kOpening, config);
+    ASSERT_TRUE(seen_all.ok()) << seen_all.status();
+    EXPECT_LT(seen_all->unobserved_uncertainty_m3, 0.001);  // a few cut edge cells
+    const auto hidden = HeightmapVolume(Seen(empty, 0.0), Seen(scan, 0.0)[0], kOpening, config);
+    ASSERT_TRUE(hidden.ok()) << hidden.status();
+    // The strip is about 1.9 m x 0.2 m; the rays over it run from the soil's height up to
+    // about 30 cm above it (from kSensor), 20-50 cm above the floor.
+    const double strip_m2 = 1.9 * 0.2;
+    EXPECT_GT(hidden->unobserved_uncertainty_m3, strip_m2 * 0.1 / std::sqrt(12.0));
+    EXPECT_LT(hidden->unobserved_uncertainty_m3, strip_m2 * 0.6 / std::sqrt(12.0));
+    // The continued soil is right here; the truth lies within the reported range.
+    EXPECT_NEAR(hidden->volume_m3, seen_all->volume_m3, 2.0 * hidden->uncertainty_m3);
+}
+
+// Cells finer than the returns' spacing are interpolated between samples, not unseen.
+TEST(HeightmapVolumeTest, CellsFinerThanTheSpacingAreNotUnobserved) {
+    const Surface floor = [](double, double) { return -0.6; };
+    const Surface soil = [](double, double) { return -0.4; };
+    HeightmapConfig config;
+    config.cell_m = 0.01;  // the returns lie about 2.5 cm apart
+    const auto result = HeightmapVolume(Seen(Sample(floor, 2000, 0.0, 7), 0.0),
+                                        Seen(Sample(soil, 2000, 0.0, 8), 0.0)[0], kOpening, config);
+    ASSERT_TRUE(result.ok()) << result.status();
+    EXPECT_GT(result->cells.interpolated, result->cells.total / 4);
+    EXPECT_LT(result->unobserved_uncertainty_m3, 0.002);
+}
+
+// The volume's pose gradient against what a rigid motion of the scan does to a heightfield.
+VolumeResult SurfaceResult(const Polygon2d& opening, double cell_m,
+                           const std::function<double(double, double)>& f) {
+    VolumeResult r;
+    r.grid = MakeGrid(opening, cell_m);
+    r.scan_surface_m.assign(r.grid.weight.size(), std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t k = 0; k < r.grid.weight.size(); ++k) {
+        if (r.grid.weight[k] > 0.0)
+            r.scan_surface_m[k] = f(r.grid.anchor[k].x(), r.grid.anchor[k].y());
+    }
+    return r;
+}
+
+TEST(VolumePoseGradientTest, FlatSurfaceMovesWithTheShiftAndTheTilt) {
+    // A flat surface over [1, 2] x [-0.5, 0.5]. A point truly lies at p - t, so the true surface
+    // is t_z lower: dV/dt_z = -area.
+    const Polygon2d opening({{1.0, -0.5}, {2.0, -0.5}, {2.0, 0.5}, {1.0, 0.5}});
+    const auto g =
+        VolumePoseGradient(SurfaceResult(opening, 0.05, [](double, double) { return -0.3; }));
+    EXPECT_NEAR(g(5), -1.0, 1e-9);
+    EXPECT_NEAR(g(3), 0.0, 1e-9);
+    EXPECT_NEAR(g(4), 0.0, 1e-9);
+    // A rotation w about y lifts each point by w x (p - w x p has z + w x): dV/dw_y = sum x dA.
+    EXPECT_NEAR(g(1), 1.5, 1e-9);
+    EXPECT_NEAR(g(0), 0.0, 1e-9);  // symmetric in y
+    EXPECT_NEAR(g(2), 0.0, 1e-9);  // a turn about z slides a flat surface along itself
+}
+
+TEST(VolumePoseGradientTest, LateralShiftMovesAStepThroughItsCells) {
+    // A 0.4 m step down at x = 0 across a 1 m wide opening: the true surface is the measured one
+    // moved by -t, F(x + t_x), so dV/dt_x = integral of dF/dx = -0.4 m x 1 m.
+    const Polygon2d opening({{-1.0, -0.5}, {1.0, -0.5}, {1.0, 0.5}, {-1.0, 0.5}});
+    const auto g = VolumePoseGradient(
+        SurfaceResult(opening, 0.05, [](double x, double) { return x < 0.0 ? -0.2 : -0.6; }));
+    EXPECT_NEAR(g(3), -0.4, 0.02);
+    EXPECT_NEAR(g(4), 0.0, 1e-9);
 }
 
 }  // namespace
