@@ -101,10 +101,11 @@ FamilyRows RunFamilies(int seeds, int empty_scans, std::ostream& kv) {
                 if (std::abs(err_l) <= 2.0 * e->uncertainty_m3 * kLitre) ++c.within_2_sigma;
                 kv << absl::StrFormat(
                     "family=%s scans=%d seed=%d fill=%.2f noise_m=%.3f true_l=%.1f estimate_l=%.1f "
-                    "err_pct_struck=%.3f sigma_l=%.2f\n",
+                    "err_pct_struck=%.3f sigma_l=%.2f below=%d both=%d fitness=%.3f\n",
                     name, empty_scans, seed, kFillShares[f], setup.sensor.range_noise_sigma_m,
                     scene.true_volume_m3 * kLitre, e->volume_m3 * kLitre, 100.0 * err_l / struck_l,
-                    e->uncertainty_m3 * kLitre);
+                    e->uncertainty_m3 * kLitre, e->volume.cells.below_empty,
+                    e->volume.cells.both_measured, e->alignment.fitness);
             }
         }
         std::vector<double> all;
@@ -166,7 +167,7 @@ struct MoveCount {
 }  // namespace
 
 std::string MovesTable(int seeds, std::ostream& kv) {
-    std::array<MoveCount, kMoves.size()> blind, known;
+    std::array<MoveCount, kMoves.size()> blind, searched, known;
     for (const sim::ContainerFamily family : sim::AllFamilies()) {
         for (int seed = 1; seed <= seeds; ++seed) {
             Setup setup = FamilySetup(family, seed);
@@ -182,13 +183,18 @@ std::string MovesTable(int seeds, std::ostream& kv) {
                 setup.move.translation() = move.shift_m;
                 const double fill_m = 0.5 * sim::MakeContainer(*setup.shape).depth_m;
                 const sim::Scene scene = FilledScan(setup, fill_m, static_cast<uint64_t>(seed), m);
-                for (int with_pose = 0; with_pose < 2; ++with_pose) {
+                // 0: from the registration's pose; 1: the same with the global search on;
+                // 2: from the true pose.
+                for (int with_pose = 0; with_pose < 3; ++with_pose) {
                     pipeline::EstimateConfig config;
-                    if (with_pose == 1) {
+                    if (with_pose == 1) config.global_search_below_fitness = 0.3;
+                    if (with_pose == 2) {
                         config.initial_T_scan_container = scene.T_scan_container * reg.sim_to_model;
                     }
                     const auto e = pipeline::EstimateVolume(*reg.model, scene.points, config);
-                    MoveCount& count = with_pose == 1 ? known[m] : blind[m];
+                    MoveCount& count = with_pose == 2   ? known[m]
+                                       : with_pose == 1 ? searched[m]
+                                                        : blind[m];
                     std::string outcome;
                     if (!e.ok()) {
                         ++count.refused;
@@ -206,10 +212,11 @@ std::string MovesTable(int seeds, std::ostream& kv) {
                         }
                         outcome = absl::StrFormat(
                             "err_pct_struck=%.2f sigma_pct=%.2f scan_observed=%.2f fitness=%.2f "
-                            "pose_sigma_m=%.4f",
+                            "pose_sigma_m=%.4f below=%d both=%d",
                             err_pct, 100.0 * e->uncertainty_m3 * kLitre / struck_l,
                             e->volume.scan_observed_share, e->alignment.fitness,
-                            e->alignment.z_sigma_m);
+                            e->alignment.z_sigma_m, e->volume.cells.below_empty,
+                            e->volume.cells.both_measured);
                     }
                     kv << "moves family=" << sim::FamilyName(family) << " seed=" << seed
                        << " move=\"" << move.name << "\" initial_pose=" << with_pose << " "
@@ -222,18 +229,31 @@ std::string MovesTable(int seeds, std::ostream& kv) {
     md << "## Large moves (every family, " << seeds
        << " seeds, half full)\n\nThe container moves between the empty scan and the filled one "
           "(container frame: yaw about the opening normal, curl about its length, roll about "
-          "its width). Without an initial pose the estimator starts from the registration's; "
-          "with one it starts from the true pose, as a machine's kinematics would give it. "
-          "Right: within 3% of struck capacity. Wrong: an answer off by more (must be 0). "
-          "Refused: FailedPrecondition.\n\n"
-       << "| move | no initial pose: right / wrong / refused | worst wrong % | true initial "
-          "pose: right / wrong / refused | worst wrong % |\n|---|---|---|---|---|\n";
+          "its width). Without an initial pose the estimator starts from the registration's "
+          "(local ICP only, the default; or with the FPFH + RANSAC global search, "
+          "`global_search_below_fitness` 0.3); with one it starts from the true pose, as a "
+          "machine's kinematics would give it. Right: within 3% of struck capacity. Wrong: an "
+          "answer off by more (must be 0). Refused: FailedPrecondition.\n\n"
+       << "| move | no initial pose: right / wrong / refused (worst wrong %) | with the global "
+          "search | true initial pose |\n|---|---|---|---|\n";
+    const auto cell = [](const MoveCount& c) {
+        return absl::StrFormat("%d / %d / %d (%.1f)", c.right, c.wrong, c.refused,
+                               c.worst_wrong_pct);
+    };
+    MoveCount total[3];
     for (std::size_t m = 0; m < kMoves.size(); ++m) {
-        md << absl::StrFormat("| %s | %d / %d / %d | %.1f | %d / %d / %d | %.1f |\n",
-                              kMoves[m].name, blind[m].right, blind[m].wrong, blind[m].refused,
-                              blind[m].worst_wrong_pct, known[m].right, known[m].wrong,
-                              known[m].refused, known[m].worst_wrong_pct);
+        md << "| " << kMoves[m].name << " | " << cell(blind[m]) << " | " << cell(searched[m])
+           << " | " << cell(known[m]) << " |\n";
+        const MoveCount* rows[3] = {&blind[m], &searched[m], &known[m]};
+        for (int i = 0; i < 3; ++i) {
+            total[i].right += rows[i]->right;
+            total[i].wrong += rows[i]->wrong;
+            total[i].refused += rows[i]->refused;
+            total[i].worst_wrong_pct = std::max(total[i].worst_wrong_pct, rows[i]->worst_wrong_pct);
+        }
     }
+    md << "| **all** | " << cell(total[0]) << " | " << cell(total[1]) << " | " << cell(total[2])
+       << " |\n";
     md << "\n";
     return md.str();
 }

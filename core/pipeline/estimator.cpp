@@ -1,5 +1,6 @@
 #include "core/pipeline/estimator.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 
@@ -43,6 +44,40 @@ absl::Status CheckContents(const volume::VolumeResult& volume, const EstimateCon
         "alignment rejected: the scan lies below the empty container in %.0f%% of the cells "
         "(%d of %d; at most %.0f%%): the container is not where the alignment put it",
         100.0 * share, volume.cells.below_empty, both, 100.0 * config.max_below_empty_share));
+}
+
+double TurnDeg(const Pose& a, const Pose& b) {
+    return Eigen::AngleAxisd((a.inverse() * b).linear()).angle() * 180.0 / 3.14159265358979;
+}
+
+// A local alignment that explains little of the model is checked against a global search on
+// the container's outside: the better explanation wins, and two poses that explain the scan
+// alike, apart, are no answer.
+absl::StatusOr<align::AlignResult> SearchWider(const model::ContainerModel& model,
+                                               const Cloud& scan, const Pose& initial,
+                                               align::AlignResult local,
+                                               const EstimateConfig& config) {
+    const Eigen::Vector3d sensor =
+        model::SensorInContainer(model.opening.T_scan_container, model.opening.polygon);
+    const std::optional<Pose> coarse =
+        align::GlobalAlign(model.alignment_points, sensor, scan, config.global, initial);
+    if (!coarse) return local;
+    align::AlignResult global = model::AlignModel(model, scan, *coarse, config.align);
+    if (!align::CheckAlignment(global, config.gate).ok()) return local;
+    const bool local_ok = align::CheckAlignment(local, config.gate).ok();
+    if (!local_ok || global.fitness > local.fitness + config.global_fitness_margin) return global;
+    const double apart_m =
+        (local.T_scan_container.translation() - global.T_scan_container.translation()).norm();
+    const double apart_deg = TurnDeg(local.T_scan_container, global.T_scan_container);
+    if (global.fitness + config.global_fitness_margin >= local.fitness &&
+        (apart_m > config.distinct_pose_m || apart_deg > config.distinct_pose_deg)) {
+        return absl::FailedPreconditionError(absl::StrFormat(
+            "alignment ambiguous: two poses %.2f m / %.1f deg apart explain the scan alike "
+            "(fitness %.3f and %.3f); give the container's pose (initial pose) or scan it with "
+            "more of its outside in view",
+            apart_m, apart_deg, local.fitness, global.fitness));
+    }
+    return local;
 }
 
 // 1-sigma of the volume from the alignment's full pose covariance: the covariance, over a left
@@ -106,6 +141,14 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     // Sec. 3.3: align the model's outside to the scan.
     const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
     estimate.alignment = model::AlignModel(model, pre.points, initial, config.align);
+    if (!config.initial_T_scan_container && config.method == volume::Method::kHeightmap &&
+        config.global_search_below_fitness >= 0.0 &&
+        (estimate.alignment.fitness < config.global_search_below_fitness ||
+         !align::CheckAlignment(estimate.alignment, config.gate).ok())) {
+        SOILVOL_ASSIGN_OR_RETURN(
+            estimate.alignment,
+            SearchWider(model, pre.points, initial, std::move(estimate.alignment), config));
+    }
     estimate.timings.align_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
     // Sec. 3.4: grid and integrate in the container frame.

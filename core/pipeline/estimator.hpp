@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "absl/status/statusor.h"
+#include "core/align/global_align.hpp"
 #include "core/align/icp.hpp"
 #include "core/cloud/preprocess.hpp"
 #include "core/model/container_model.hpp"
@@ -31,6 +32,18 @@ struct EstimateConfig {
     /// Container pose in the scan frame from the machine's kinematics; default: the pose it had
     /// in the empty scan.
     std::optional<Pose> initial_T_scan_container;
+    /// Without a kinematic pose, an alignment that fails the gate or matches less than this
+    /// share of the model's outside is checked against a global search (`global`, 100-200 ms):
+    /// the better explanation of the scan wins by `global_fitness_margin`, and two different
+    /// poses that explain it alike are refused (FailedPrecondition). Off (negative) by default:
+    /// the gate cannot yet tell a container's outside from a plane laid over its rim, which the
+    /// global search then finds (BENCHMARK.md, Large moves).
+    double global_search_below_fitness = -1.0;
+    double global_fitness_margin = 0.05;
+    /// Poses this far apart are different answers.
+    double distinct_pose_m = 0.05;
+    double distinct_pose_deg = 3.0;
+    align::GlobalAlignConfig global;
 };
 
 /// Wall-clock time per stage [ms].
