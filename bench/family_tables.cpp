@@ -101,11 +101,12 @@ FamilyRows RunFamilies(int seeds, int empty_scans, std::ostream& kv) {
                 if (std::abs(err_l) <= 2.0 * e->uncertainty_m3 * kLitre) ++c.within_2_sigma;
                 kv << absl::StrFormat(
                     "family=%s scans=%d seed=%d fill=%.2f noise_m=%.3f true_l=%.1f estimate_l=%.1f "
-                    "err_pct_struck=%.3f sigma_l=%.2f below=%d both=%d fitness=%.3f\n",
+                    "err_pct_struck=%.3f sigma_l=%.2f below=%d both=%d fitness=%.3f "
+                    "through=%.3f\n",
                     name, empty_scans, seed, kFillShares[f], setup.sensor.range_noise_sigma_m,
                     scene.true_volume_m3 * kLitre, e->volume_m3 * kLitre, 100.0 * err_l / struck_l,
                     e->uncertainty_m3 * kLitre, e->volume.cells.below_empty,
-                    e->volume.cells.both_measured, e->alignment.fitness);
+                    e->volume.cells.both_measured, e->alignment.fitness, e->seen_through.Share());
             }
         }
         std::vector<double> all;
@@ -212,11 +213,11 @@ std::string MovesTable(int seeds, std::ostream& kv) {
                         }
                         outcome = absl::StrFormat(
                             "err_pct_struck=%.2f sigma_pct=%.2f scan_observed=%.2f fitness=%.2f "
-                            "pose_sigma_m=%.4f below=%d both=%d",
+                            "pose_sigma_m=%.4f below=%d both=%d through=%.3f",
                             err_pct, 100.0 * e->uncertainty_m3 * kLitre / struck_l,
                             e->volume.scan_observed_share, e->alignment.fitness,
                             e->alignment.z_sigma_m, e->volume.cells.below_empty,
-                            e->volume.cells.both_measured);
+                            e->volume.cells.both_measured, e->seen_through.Share());
                     }
                     kv << "moves family=" << sim::FamilyName(family) << " seed=" << seed
                        << " move=\"" << move.name << "\" initial_pose=" << with_pose << " "

@@ -80,6 +80,26 @@ absl::StatusOr<align::AlignResult> SearchWider(const model::ContainerModel& mode
     return local;
 }
 
+// The model's outside must not float in space the scan's rays crossed.
+absl::StatusOr<align::SeenThrough> CheckFreeSpace(const model::ContainerModel& model,
+                                                  const Cloud& scan,
+                                                  const align::AlignResult& alignment,
+                                                  const EstimateConfig& config) {
+    Cloud outside;
+    outside.reserve(model.alignment_points.size());
+    for (const auto& p : model.alignment_points) {
+        outside.push_back((alignment.T_scan_container * p.cast<double>()).cast<float>());
+    }
+    const align::SeenThrough seen =
+        align::SeenThroughShare(outside, scan, model.noise_sigma_m, config.seen_through);
+    if (seen.Share() <= config.max_seen_through_share) return seen;
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "alignment rejected: the scan sees through %.0f%% of the container's outside at the "
+        "found pose (%zu of %zu points with returns in their direction; at most %.0f%%): the "
+        "container is not where the alignment put it; give its pose (initial pose)",
+        100.0 * seen.Share(), seen.through, seen.tested, 100.0 * config.max_seen_through_share));
+}
+
 // 1-sigma of the volume from the alignment's full pose covariance: the covariance, over a left
 // perturbation in the scan frame, carried into the container frame (adjoint of the inverse
 // pose) and projected on the volume's pose gradient.
@@ -151,6 +171,8 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     }
     estimate.timings.align_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
+    SOILVOL_ASSIGN_OR_RETURN(estimate.seen_through,
+                             CheckFreeSpace(model, pre.points, estimate.alignment, config));
     // Sec. 3.4: grid and integrate in the container frame.
     const Cloud aligned = model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container);
     SOILVOL_ASSIGN_OR_RETURN(

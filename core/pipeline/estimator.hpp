@@ -6,6 +6,7 @@
 #include "absl/status/statusor.h"
 #include "core/align/global_align.hpp"
 #include "core/align/icp.hpp"
+#include "core/align/seen_through.hpp"
 #include "core/cloud/preprocess.hpp"
 #include "core/model/container_model.hpp"
 #include "core/volume/heightmap_volume.hpp"
@@ -25,6 +26,11 @@ struct EstimateConfig {
     /// empty surface over more than this share of the cells both saw, the alignment is wrong
     /// and the estimate is refused (FailedPrecondition).
     double max_below_empty_share = 0.25;
+    /// Free space against the pose: when the scan's rays passed through more than this share
+    /// of the model's outside (at the found pose, among the points with returns in their
+    /// direction), the container is not where the alignment put it (FailedPrecondition).
+    double max_seen_through_share = 0.05;
+    align::SeenThroughConfig seen_through;
     /// An estimate whose 1-sigma exceeds this share of the struck capacity is refused
     /// (FailedPrecondition, with the figures): the scan or the empty scans saw too little of
     /// the opening to know. 0 = never refused for its uncertainty.
@@ -62,6 +68,7 @@ struct VolumeEstimate {
     double fill_ratio_heaped = 0.0;  ///< volume / heaped capacity (SAE J296)
     volume::VolumeResult volume;     ///< grid, per-cell heights and counts
     align::AlignResult alignment;
+    align::SeenThrough seen_through;  ///< the model's outside the scan's rays passed through
     StageTimings timings;
     std::size_t input_points = 0;
     std::size_t preprocessed_points = 0;

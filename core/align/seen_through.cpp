@@ -1,0 +1,54 @@
+#include "core/align/seen_through.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/cloud/kd_tree.hpp"
+#include "core/common/statistics.hpp"
+
+namespace soilvol::align {
+
+SeenThrough SeenThroughShare(const Cloud& model_in_scan, const Cloud& scan, double noise_sigma_m,
+                             const SeenThroughConfig& config) {
+    SeenThrough out;
+    Cloud directions;
+    std::vector<float> ranges;
+    directions.reserve(scan.size());
+    ranges.reserve(scan.size());
+    for (const auto& p : scan) {
+        const float r = p.norm();
+        if (!(r > 0.0f)) continue;
+        directions.push_back(p / r);
+        ranges.push_back(r);
+    }
+    if (directions.size() < 2) return out;
+    const cloud::KdTree tree(directions);
+    // Angular spacing: the median angle to the nearest other return, over a sample.
+    std::vector<float> gaps;
+    const std::size_t step = std::max<std::size_t>(1, directions.size() / 500);
+    for (std::size_t i = 0; i < directions.size(); i += step) {
+        const auto near = tree.Radius(directions[i], 0.05);
+        float best = 1e9f;
+        for (const auto& [j, d2] : near) {
+            if (j != i && d2 > 0.0f) best = std::min(best, d2);
+        }
+        if (best < 1e9f) gaps.push_back(std::sqrt(best));
+    }
+    if (gaps.empty()) return out;
+    const double tolerance = config.spacings * Median(gaps);
+    const double margin = std::max(config.min_margin_m, config.margin_sigmas * noise_sigma_m);
+    for (const auto& p : model_in_scan) {
+        const double r = p.norm();
+        if (!(r > 0.0)) continue;
+        const auto near = tree.Radius((p / static_cast<float>(r)), tolerance);
+        if (near.empty()) continue;
+        ++out.tested;
+        float nearest_range = 1e30f;
+        for (const auto& [j, d2] : near) nearest_range = std::min(nearest_range, ranges[j]);
+        if (nearest_range > r + margin) ++out.through;
+    }
+    return out;
+}
+
+}  // namespace soilvol::align
