@@ -14,9 +14,12 @@ SeenThrough SeenThroughShare(const Cloud& model_in_scan, const Cloud& scan, doub
     SeenThrough out;
     Cloud directions;
     std::vector<float> ranges;
-    directions.reserve(scan.size());
-    ranges.reserve(scan.size());
-    for (const auto& p : scan) {
+    const std::size_t stride = std::max<std::size_t>(
+        1, (scan.size() + config.max_returns - 1) / std::max<std::size_t>(config.max_returns, 1));
+    directions.reserve(scan.size() / stride + 1);
+    ranges.reserve(scan.size() / stride + 1);
+    for (std::size_t i = 0; i < scan.size(); i += stride) {
+        const Eigen::Vector3f& p = scan[i];
         const float r = p.norm();
         if (!(r > 0.0f)) continue;
         directions.push_back(p / r);

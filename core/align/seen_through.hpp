@@ -18,6 +18,9 @@ struct SeenThroughConfig {
     double spacings = 2.0;
     double margin_sigmas = 4.0;  ///< behind the point by more than this many noise sigmas
     double min_margin_m = 0.05;  ///< and at least this
+    /// Returns kept for the test (evenly strided): the spacing and the tolerance grow with the
+    /// stride, the test stays the same.
+    std::size_t max_returns = 8192;
 };
 
 struct SeenThrough {

@@ -34,7 +34,7 @@ struct EstimateConfig {
     /// An estimate whose 1-sigma exceeds this share of the struck capacity is refused
     /// (FailedPrecondition, with the figures): the scan or the empty scans saw too little of
     /// the opening to know. 0 = never refused for its uncertainty.
-    double max_uncertainty_share = 0.10;
+    double max_uncertainty_share = 0.15;
     /// Container pose in the scan frame from the machine's kinematics; default: the pose it had
     /// in the empty scan.
     std::optional<Pose> initial_T_scan_container;
