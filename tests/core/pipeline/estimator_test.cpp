@@ -113,20 +113,27 @@ TEST(EstimatorTest, ScanOfSomethingElseIsRefusedByTheAlignmentGate) {
     EXPECT_NE(estimate.status().message().find("alignment rejected"), std::string::npos);
 }
 
-// The bucket curled 40 deg away from the sensor: the scan sees the outside of its floor and
-// little of the soil. Even from the true pose (kinematics), that is not an answer.
-TEST(EstimatorTest, ScanThatSeesLittleOfTheOpeningIsRefusedWithItsFigures) {
-    const model::ContainerModel model = Register(ContainerKind::kPaperBucket, 0.01);
+constexpr double kDeg = 3.14159265358979 / 180.0;
+
+// The paper bucket filled to 30 cm, moved by `move` (its own frame) before a 1 cm scan.
+sim::Scene MovedScan(const Pose& move, uint64_t scan_seed) {
     sim::SceneSpec spec;
     spec.container = ContainerKind::kPaperBucket;
     spec.sensor = Sensor(ContainerKind::kPaperBucket, 0.01);
     spec.soil.fill_height_m = 0.3;
     spec.soil_seed = 11;
-    spec.scan_seed = 7;
-    spec.move.linear() =
-        Eigen::AngleAxisd(-40.0 * 3.14159265358979 / 180.0, Eigen::Vector3d::UnitX())
-            .toRotationMatrix();
-    const sim::Scene scene = sim::SimulateScene(spec);
+    spec.scan_seed = scan_seed;
+    spec.move = move;
+    return sim::SimulateScene(spec);
+}
+
+// The bucket curled 40 deg away from the sensor: the scan sees the outside of its floor and
+// little of the soil. Even from the true pose (kinematics), that is not an answer.
+TEST(EstimatorTest, ScanThatSeesLittleOfTheOpeningIsRefusedWithItsFigures) {
+    const model::ContainerModel model = Register(ContainerKind::kPaperBucket, 0.01);
+    Pose curl = Pose::Identity();
+    curl.linear() = Eigen::AngleAxisd(-40.0 * kDeg, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    const sim::Scene scene = MovedScan(curl, 7);
     const sim::Scene empty = Scan(ContainerKind::kPaperBucket, 0.0, 0.01, 1);
     EstimateConfig config;
     // The model frame is the empty scan's container frame moved by its registration.
@@ -152,18 +159,12 @@ TEST(EstimatorTest, LargeMovesAreAnsweredRightOrRefused) {
                  {60.0, 0.0, {0.6, -0.5, 0.3}}, {0.0, 0.0, {0.0, 0.8, 0.6}}};
     int answered = 0;
     for (const auto& m : moves) {
-        sim::SceneSpec spec;
-        spec.container = ContainerKind::kPaperBucket;
-        spec.sensor = Sensor(ContainerKind::kPaperBucket, 0.01);
-        spec.soil.fill_height_m = 0.3;
-        spec.soil_seed = 11;
-        spec.scan_seed = 9;
-        spec.move.linear() =
-            (Eigen::AngleAxisd(m.yaw_deg * 3.14159265358979 / 180.0, Eigen::Vector3d::UnitZ()) *
-             Eigen::AngleAxisd(m.roll_deg * 3.14159265358979 / 180.0, Eigen::Vector3d::UnitY()))
-                .toRotationMatrix();
-        spec.move.translation() = m.shift;
-        const sim::Scene scene = sim::SimulateScene(spec);
+        Pose move = Pose::Identity();
+        move.linear() = (Eigen::AngleAxisd(m.yaw_deg * kDeg, Eigen::Vector3d::UnitZ()) *
+                         Eigen::AngleAxisd(m.roll_deg * kDeg, Eigen::Vector3d::UnitY()))
+                            .toRotationMatrix();
+        move.translation() = m.shift;
+        const sim::Scene scene = MovedScan(move, 9);
         const auto estimate = EstimateVolume(model, scene.points, EstimateConfig{});
         if (!estimate.ok()) {
             EXPECT_EQ(estimate.status().code(), absl::StatusCode::kFailedPrecondition);
