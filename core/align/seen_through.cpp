@@ -49,7 +49,7 @@ SeenThrough SeenThroughShare(const Cloud& model_in_scan, const Cloud& scan, doub
         ++out.tested;
         float nearest_range = 1e30f;
         for (const auto& [j, d2] : near) nearest_range = std::min(nearest_range, ranges[j]);
-        if (nearest_range > r + margin) ++out.through;
+        if (static_cast<double>(nearest_range) > r + margin) ++out.through;
     }
     return out;
 }
