@@ -4,32 +4,49 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/cloud/kd_tree.hpp"
+#include "core/cloud/voxel_grid.hpp"
 
 namespace soilvol::cloud {
 
 LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_neighbors) {
-    const KdTree tree(points);
-    const auto n = static_cast<long>(points.size());
+    // Voxels of the radius: every neighbour of a point lies in the 3^3 block around its voxel,
+    // gathered once for all the voxel's points.
+    const VoxelGrid grid(points, radius_m);
+    const auto num_voxels = static_cast<long>(grid.NumVoxels());
+    const auto r2 = static_cast<float>(radius_m * radius_m);
     Cloud means(points.size()), normals(points.size());
     std::vector<uint8_t> kept(points.size(), 0);
-#pragma omp parallel for schedule(dynamic, 64)
-    for (long i = 0; i < n; ++i) {
-        const auto found = tree.Radius(points[static_cast<std::size_t>(i)], radius_m);
-        if (static_cast<int>(found.size()) < min_neighbors) continue;
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (const auto& f : found) mean += points[f.first].cast<double>();
-        mean /= static_cast<double>(found.size());
-        Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-        for (const auto& f : found) {
-            const Eigen::Vector3d d = points[f.first].cast<double>() - mean;
-            cov += d * d.transpose();
+#pragma omp parallel
+    {
+        std::vector<uint32_t> candidates, found;
+#pragma omp for schedule(dynamic, 16)
+        for (long v = 0; v < num_voxels; ++v) {
+            grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), 1, candidates);
+            const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
+            for (std::size_t o = begin; o < end; ++o) {
+                const uint32_t k = grid.Order()[o];
+                const Eigen::Vector3f& p = points[k];
+                found.clear();
+                for (const uint32_t j : candidates) {
+                    if ((points[j] - p).squaredNorm() <= r2) found.push_back(j);
+                }
+                if (static_cast<int>(found.size()) < min_neighbors) continue;
+                Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+                for (const uint32_t j : found) mean += points[j].cast<double>();
+                mean /= static_cast<double>(found.size());
+                Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+                for (const uint32_t j : found) {
+                    const Eigen::Vector3d d = points[j].cast<double>() - mean;
+                    cov += d * d.transpose();
+                }
+                means[k] = mean.cast<float>();
+                // Closed form: a surface patch's smallest eigenvalue stands well apart.
+                Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+                solver.computeDirect(cov);
+                normals[k] = solver.eigenvectors().col(0).cast<float>();
+                kept[k] = 1;
+            }
         }
-        const auto k = static_cast<std::size_t>(i);
-        means[k] = mean.cast<float>();
-        normals[k] =
-            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0).cast<float>();
-        kept[k] = 1;
     }
     LocalSurface out;
     for (std::size_t k = 0; k < points.size(); ++k) {

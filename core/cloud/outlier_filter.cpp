@@ -65,24 +65,6 @@ float MeanFromCandidates(const Cloud& points, uint32_t i, const std::vector<uint
     return static_cast<float>(sum / static_cast<double>(k));
 }
 
-// Points of the (2 reach + 1)^3 voxels around `c`.
-void GatherBlock(const VoxelGrid& grid, const Eigen::Vector3i& c, int reach,
-                 std::vector<uint32_t>& out) {
-    out.clear();
-    for (int dx = -reach; dx <= reach; ++dx) {
-        for (int dy = -reach; dy <= reach; ++dy) {
-            // The voxels along z are one contiguous run of the sorted grid.
-            const auto [first, last] =
-                grid.ColumnRange(c + Eigen::Vector3i(dx, dy, -reach), 2 * reach + 1);
-            if (first == last) continue;
-            const std::size_t begin = grid.Range(first).first;
-            const std::size_t end = grid.Range(last - 1).second;
-            out.insert(out.end(), grid.Order().begin() + static_cast<long>(begin),
-                       grid.Order().begin() + static_cast<long>(end));
-        }
-    }
-}
-
 }  // namespace
 
 std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_threads) {
@@ -106,7 +88,7 @@ std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_thr
                 for (std::size_t o = begin; o < end && !needed; ++o)
                     needed = mean[grid.Order()[o]] < 0.0f;
                 if (!needed) continue;
-                GatherBlock(grid, grid.Coord(static_cast<std::size_t>(v)), reach, candidates);
+                grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), reach, candidates);
                 for (std::size_t o = begin; o < end; ++o) {
                     const uint32_t i = grid.Order()[o];
                     if (mean[i] >= 0.0f) continue;

@@ -77,6 +77,20 @@ std::pair<std::size_t, std::size_t> VoxelGrid::ColumnRange(const Eigen::Vector3i
             static_cast<std::size_t>(last - keys_.begin())};
 }
 
+void VoxelGrid::GatherBlock(const Eigen::Vector3i& c, int reach, std::vector<uint32_t>& out) const {
+    out.clear();
+    for (int dx = -reach; dx <= reach; ++dx) {
+        for (int dy = -reach; dy <= reach; ++dy) {
+            // The voxels along z are one contiguous run of the sorted grid.
+            const auto [first, last] =
+                ColumnRange(c + Eigen::Vector3i(dx, dy, -reach), 2 * reach + 1);
+            if (first == last) continue;
+            out.insert(out.end(), order_.begin() + static_cast<long>(starts_[first]),
+                       order_.begin() + static_cast<long>(starts_[last]));
+        }
+    }
+}
+
 Cloud VoxelDownsample(const Cloud& points, double voxel_size_m) {
     if (voxel_size_m <= 0.0) return points;
     const VoxelGrid grid(points, voxel_size_m);

@@ -30,6 +30,8 @@ class VoxelGrid {
     int64_t Find(const Eigen::Vector3i& c) const;
     /// Occupied voxels [first, last) among c, c + z, ..., c + (count - 1) z: one sorted run.
     std::pair<std::size_t, std::size_t> ColumnRange(const Eigen::Vector3i& c, int count) const;
+    /// Indices of the points in the (2 reach + 1)^3 voxels around `c`, into `out` (cleared).
+    void GatherBlock(const Eigen::Vector3i& c, int reach, std::vector<uint32_t>& out) const;
     /// Integer coordinates of the voxel holding `p`.
     Eigen::Vector3i CoordOf(const Eigen::Vector3f& p) const;
 

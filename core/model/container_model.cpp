@@ -12,6 +12,7 @@
 #include "core/cloud/voxel_grid.hpp"
 #include "core/common/statistics.hpp"
 #include "core/common/status_macros.hpp"
+#include "core/model/model_cache.hpp"
 #include "core/volume/surface_estimator.hpp"
 
 namespace soilvol::model {
@@ -127,27 +128,14 @@ align::AlignResult AlignModel(const ContainerModel& model, const Cloud& scan, co
 
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points) {
     if (model.structure.empty() || model.structure_radius_m <= 0.0) return points;
-    const cloud::KdTree tree(model.structure);
-    const double r = model.structure_radius_m;
-    const auto r2 = static_cast<float>(r * r);
-    // The structure lies outside the opening's column or above it: a point deeper in the
-    // column than the radius needs no search.
-    double top = -1e9;
-    for (const auto& s : model.structure) {
-        if (model.opening.polygon.Contains(s.head<2>().cast<double>())) {
-            top = std::max(top, static_cast<double>(s.z()));
-        }
-    }
+    std::unique_ptr<StructureIndex> own;
+    const StructureIndex& index = model.cache ? model.cache->Structure(model)
+                                              : *(own = std::make_unique<StructureIndex>(model));
     WeightedCloud kept;
     kept.sensor = points.sensor;
     kept.points.reserve(points.points.size());
     for (std::size_t i = 0; i < points.points.size(); ++i) {
-        const Eigen::Vector3f& p = points.points[i];
-        const Eigen::Vector2d xy = p.head<2>().cast<double>();
-        const bool interior = static_cast<double>(p.z()) < top - r &&
-                              model.opening.polygon.Contains(xy) &&
-                              model.opening.polygon.DistanceToBoundary(xy) > r;
-        if (!interior && tree.Nearest(p).second <= r2) continue;
+        if (index.Near(points.points[i])) continue;
         kept.points.push_back(points.points[i]);
         if (!points.weights.empty()) kept.weights.push_back(points.weights[i]);
     }
@@ -208,6 +196,7 @@ absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
 // Sec. 3.2: the empty surface from every empty scan; the struck capacity is the volume between
 // it and the opening.
 absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model) {
+    model.cache = std::make_shared<ModelCache>();
     const volume::Grid grid = volume::MakeGrid(model.opening.polygon, ModelCell(model, config));
     SOILVOL_ASSIGN_OR_RETURN(const volume::EmptySurface empty,
                              volume::EstimateEmptySurface(grid, model.cavity, config.heightmap));

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 
 #include "absl/status/statusor.h"
 #include "core/align/icp.hpp"
@@ -35,6 +36,8 @@ struct ModelConfig {
     volume::HeightmapConfig heightmap;  ///< used for the empty surface and the capacities
 };
 
+class ModelCache;
+
 /// The container model (paper Sec. 3.2), built once from a scan of the empty container.
 /// Clouds are in the container frame of `opening`.
 struct ContainerModel {
@@ -56,6 +59,9 @@ struct ContainerModel {
     double observed_share = 0.0;          ///< of the opening's area, seen by the empty scans
     std::size_t scan_points = 0;          ///< after preprocessing
     std::size_t outside_points = 0;
+    /// What estimates derive from the fields above and reuse (model_cache.hpp); set anew by
+    /// every change through this header and by the codec; null: derived afresh on every call.
+    std::shared_ptr<ModelCache> cache;
 };
 
 /// Builds the model from an empty scan (scan frame) and its 4 opening corners (scan frame,

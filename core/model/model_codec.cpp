@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/checksum.hpp"
+#include "core/model/model_cache.hpp"
 
 namespace soilvol::model {
 namespace {
@@ -197,6 +198,7 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
     model.outside_points = r.Get<uint64_t>();
     if (r.ok() && r.Remaining() != 0) r.Fail("payload has trailing bytes");
     if (!r.ok()) return absl::DataLossError(absl::StrCat("container model: ", r.error()));
+    model.cache = std::make_shared<ModelCache>();
     return model;
 }
 

@@ -9,6 +9,7 @@
 #include "core/cloud/ray_weights.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
+#include "core/model/model_cache.hpp"
 
 namespace soilvol::pipeline {
 namespace {
@@ -31,7 +32,13 @@ absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& mode
     column.weights =
         cloud::RayWeights(column.points, sensor, model.noise_sigma_m, config.heightmap.ray_weights);
     column.sensor = sensor;
-    return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap);
+    if (!model.cache)
+        return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap);
+    model::ModelCache& cache = *model.cache;
+    const volume::EmptySide empty{cache.EmptyMinZ(model), [&](const volume::Grid& grid) {
+                                      return cache.EmptySurface(model, grid, config.heightmap);
+                                  }};
+    return volume::HeightmapVolume(empty, column, opening, config.heightmap);
 }
 
 // The pose is wrong when the scan lies below the empty container over much of the opening.

@@ -42,18 +42,32 @@ std::size_t CountInside(const Cloud& points, const Polygon2d& opening) {
     return n;
 }
 
-// Chessboard distance, in cells, from each cell to the nearest measured one (two passes).
-std::vector<int> CellsToMeasured(const Grid& grid, const SurfaceMap& map) {
+// Chessboard distance, in cells, from each cell to a nearest measured one, and that cell (two
+// passes; -1 where no cell is measured).
+struct NearestMeasured {
+    std::vector<int> cells;
+    std::vector<int> source;
+};
+
+NearestMeasured CellsToMeasured(const Grid& grid, const SurfaceMap& map) {
     constexpr int kFar = 1 << 28;
-    std::vector<int> d(map.support.size(), kFar);
-    for (std::size_t k = 0; k < d.size(); ++k) {
-        if (grid.weight[k] > 0.0 && map.support[k] > 0) d[k] = 0;
+    NearestMeasured out{std::vector<int>(map.support.size(), kFar),
+                        std::vector<int>(map.support.size(), -1)};
+    for (std::size_t k = 0; k < out.cells.size(); ++k) {
+        if (grid.weight[k] > 0.0 && map.support[k] > 0) {
+            out.cells[k] = 0;
+            out.source[k] = static_cast<int>(k);
+        }
     }
     const auto relax = [&](int r, int c, int dr, int dc) {
         const int rr = r + dr, cc = c + dc;
         if (rr < 0 || cc < 0 || rr >= grid.rows || cc >= grid.cols) return;
-        int& here = d[static_cast<std::size_t>(r * grid.cols + c)];
-        here = std::min(here, d[static_cast<std::size_t>(rr * grid.cols + cc)] + 1);
+        const auto here = static_cast<std::size_t>(r * grid.cols + c);
+        const auto there = static_cast<std::size_t>(rr * grid.cols + cc);
+        if (out.cells[there] + 1 < out.cells[here]) {
+            out.cells[here] = out.cells[there] + 1;
+            out.source[here] = out.source[there];
+        }
     };
     for (int r = 0; r < grid.rows; ++r) {
         for (int c = 0; c < grid.cols; ++c) {
@@ -65,7 +79,7 @@ std::vector<int> CellsToMeasured(const Grid& grid, const SurfaceMap& map) {
             relax(r, c, 1, 1), relax(r, c, 1, 0), relax(r, c, 1, -1), relax(r, c, 0, 1);
         }
     }
-    return d;
+    return out;
 }
 
 // Returns' mean spacing over the opening [m] (over-estimated where they cover only part of it,
@@ -93,7 +107,7 @@ bool Unseen(const std::vector<int>& cells_to_measured, std::size_t k, double cel
 std::vector<double> BoundUnobservedEmpty(const Grid& grid, const std::vector<double>& ceiling,
                                          const Cloud& points, SurfaceMap& empty) {
     const CellBins bins = BinPoints(grid, points);
-    const std::vector<int> gap = CellsToMeasured(grid, empty);
+    const std::vector<int> gap = CellsToMeasured(grid, empty).cells;
     const double spacing = Spacing(grid, points.size());
     std::vector<double> sigma(empty.height.size(), 0.0);
     for (std::size_t k = 0; k < empty.height.size(); ++k) {
@@ -115,13 +129,15 @@ std::vector<double> BoundUnobservedEmpty(const Grid& grid, const std::vector<dou
 
 // The soil surface under a cell the scan did not see continues its neighbours, between the
 // empty surface and the lowest ray that passed over it, and under the steepest heap rising from
-// the rim. Returns each cell's 1-sigma over that range (uniform) [m]. Where no ray passed over
-// a cell (or the scan has no sensor geometry) only the heap bounds it, and the range is the
-// whole of it.
+// the rim. Loose soil stands no steeper than that heap slope anywhere (its angle of repose is
+// below it), so the cell also lies within slope x distance of a measured cell's height: a hidden
+// strip along a wall cannot hold a pit or a tower its seen neighbours rule out. Returns each
+// cell's 1-sigma over that range (uniform) [m]. Where no ray passed over a cell (or the scan has
+// no sensor geometry) only the heap and the slope bound it.
 std::vector<double> BoundUnobservedSoil(const Grid& grid, const std::vector<double>& ceiling,
                                         const SurfaceMap& empty, const Polygon2d& opening,
                                         double heap_slope, std::size_t points, SurfaceMap& soil) {
-    const std::vector<int> gap = CellsToMeasured(grid, soil);
+    const NearestMeasured nearest = CellsToMeasured(grid, soil);
     const double spacing = Spacing(grid, points);
     std::vector<double> sigma(soil.height.size(), 0.0);
     for (std::size_t k = 0; k < soil.height.size(); ++k) {
@@ -130,7 +146,16 @@ std::vector<double> BoundUnobservedSoil(const Grid& grid, const std::vector<doub
         const double heap = heap_slope * opening.DistanceToBoundary(grid.anchor[k]);
         const double top = std::max(floor, std::min(ceiling[k], heap));
         soil.height[k] = std::clamp(soil.height[k], floor, top);
-        if (Unseen(gap, k, grid.cell_m, spacing)) sigma[k] = (top - floor) / std::sqrt(12.0);
+        double lo = floor, hi = top;
+        if (nearest.source[k] >= 0) {
+            const auto m = static_cast<std::size_t>(nearest.source[k]);
+            const double reach = heap_slope * (grid.anchor[k] - grid.anchor[m]).norm();
+            // The range holds the cell's own continuation too: a measured neighbour's height
+            // carries its noise, and the continuation follows more than one neighbour.
+            lo = std::min(std::max(lo, soil.height[m] - reach), soil.height[k]);
+            hi = std::max(std::min(hi, soil.height[m] + reach), soil.height[k]);
+        }
+        if (Unseen(nearest.cells, k, grid.cell_m, spacing)) sigma[k] = (hi - lo) / std::sqrt(12.0);
     }
     return sigma;
 }
@@ -145,7 +170,10 @@ double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening
     if (points_in_opening == 0) return max_cell;
     const double cell = std::sqrt(config.target_points_per_cell * opening.Area() /
                                   static_cast<double>(points_in_opening));
-    return std::clamp(cell, config.min_cell_m, max_cell);
+    if (!(cell > config.min_cell_m)) return std::min(config.min_cell_m, max_cell);
+    constexpr double kStepsPerOctave = 8.0;
+    const double steps = std::round(kStepsPerOctave * std::log2(cell / config.min_cell_m));
+    return std::min(config.min_cell_m * std::exp2(steps / kStepsPerOctave), max_cell);
 }
 
 WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, double empty_min_z,
@@ -188,14 +216,31 @@ absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
     return out;
 }
 
+double EmptyMinZ(const std::vector<WeightedCloud>& empty_inside) {
+    double min_z = 0.0;
+    for (const WeightedCloud& e : empty_inside) {
+        min_z = std::min(min_z, LowQuantileZ(e.points, 0.005));
+    }
+    return min_z;
+}
+
 absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
                                              const WeightedCloud& scan, const Polygon2d& opening,
                                              const HeightmapConfig& config) {
-    double empty_min_z = 0.0;
-    for (const WeightedCloud& e : empty_inside) {
-        empty_min_z = std::min(empty_min_z, LowQuantileZ(e.points, 0.005));
-    }
-    const WeightedCloud column = SelectColumn(scan, opening, empty_min_z, config);
+    const EmptySide empty{
+        EmptyMinZ(empty_inside),
+        [&](const Grid& grid) -> absl::StatusOr<std::shared_ptr<const EmptySurface>> {
+            SOILVOL_ASSIGN_OR_RETURN(EmptySurface surface,
+                                     EstimateEmptySurface(grid, empty_inside, config));
+            return std::make_shared<const EmptySurface>(std::move(surface));
+        }};
+    return HeightmapVolume(empty, scan, opening, config);
+}
+
+absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const WeightedCloud& scan,
+                                             const Polygon2d& opening,
+                                             const HeightmapConfig& config) {
+    const WeightedCloud column = SelectColumn(scan, opening, empty_side.min_z, config);
     const double cell_m =
         config.cell_m > 0.0
             ? config.cell_m
@@ -203,8 +248,9 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
     VolumeResult result;
     result.grid = MakeGrid(opening, cell_m);
     const Grid& grid = result.grid;
-    SOILVOL_ASSIGN_OR_RETURN(const EmptySurface empty_surface,
-                             EstimateEmptySurface(grid, empty_inside, config));
+    SOILVOL_ASSIGN_OR_RETURN(const std::shared_ptr<const EmptySurface> empty_entry,
+                             empty_side.surface(grid));
+    const EmptySurface& empty_surface = *empty_entry;
     const SurfaceMap& empty = empty_surface.map;
     const std::vector<double>& unobserved_sigma = empty_surface.unobserved_sigma_m;
     SOILVOL_ASSIGN_OR_RETURN(SurfaceMap soil,

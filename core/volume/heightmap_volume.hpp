@@ -1,5 +1,8 @@
 #pragma once
 
+#include <functional>
+#include <memory>
+
 #include "absl/status/statusor.h"
 #include "core/cloud/ray_weights.hpp"
 #include "core/common/polygon.hpp"
@@ -23,7 +26,9 @@ struct HeightmapConfig {
     SurfaceConfig surface;
 };
 
-/// Cell size [m] the automatic rule picks for `points_in_opening` points over `area_m2`.
+/// Cell size [m] the automatic rule picks for `points_in_opening` points over the opening: the
+/// density target's size, rounded to a step of 2^(1/8) from min_cell_m (so that scans of one
+/// container from one sensor share a grid, and its empty surface), within the limits.
 double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening,
                          const HeightmapConfig& config);
 
@@ -47,9 +52,24 @@ absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
                                                   const std::vector<WeightedCloud>& empty,
                                                   const HeightmapConfig& config);
 
-/// Soil volume between the empty surface (points of the empty container's inside) and the
-/// scan's surface, both in the container frame with ray weights. FailedPrecondition when either
-/// surface has no measurable cell.
+/// The empty container as HeightmapVolume reads it: how deep its inside reaches, and its
+/// surface over any grid (computed on demand, or taken from a cache).
+struct EmptySide {
+    double min_z = 0.0;  ///< a low quantile of the inside's heights [m]
+    std::function<absl::StatusOr<std::shared_ptr<const EmptySurface>>(const Grid&)> surface;
+};
+
+/// The lowest height of the empty scans' inside points, robust to a few strays.
+double EmptyMinZ(const std::vector<WeightedCloud>& empty_inside);
+
+/// Soil volume between the empty surface and the scan's surface, both in the container frame
+/// with ray weights. FailedPrecondition when either surface has no measurable cell.
+absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty, const WeightedCloud& scan,
+                                             const Polygon2d& opening,
+                                             const HeightmapConfig& config);
+
+/// The same with the empty surface computed from the empty scans' inside points (container
+/// frame, with ray weights); `empty_inside` must outlive the call only.
 absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
                                              const WeightedCloud& scan, const Polygon2d& opening,
                                              const HeightmapConfig& config);

@@ -249,6 +249,14 @@ int WindowCells(const Grid& grid, double density, const SurfaceConfig& config) {
 
 }  // namespace
 
+bool operator==(const SurfaceConfig& a, const SurfaceConfig& b) {
+    return a.min_window_points == b.min_window_points && a.max_window_cells == b.max_window_cells &&
+           a.tukey_sigmas == b.tukey_sigmas && a.robust_iterations == b.robust_iterations &&
+           a.min_observed_fraction == b.min_observed_fraction && a.max_slope == b.max_slope &&
+           a.min_noise_m == b.min_noise_m && a.default_noise_m == b.default_noise_m &&
+           a.num_threads == b.num_threads;
+}
+
 absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points,
                                            const std::vector<float>& weights,
                                            const SurfaceConfig& config) {

@@ -29,6 +29,9 @@ struct SurfaceConfig {
     int num_threads = 0;            ///< 0 = all cores
 };
 
+/// Field by field (a new field must join it: the model cache keys empty surfaces by it).
+bool operator==(const SurfaceConfig& a, const SurfaceConfig& b);
+
 /// Height of a surface at every cell anchor of a grid.
 struct SurfaceMap {
     std::vector<double> height;  ///< z [m] at each cell's anchor; NaN for cells outside the opening

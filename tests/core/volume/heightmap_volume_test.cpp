@@ -167,9 +167,16 @@ TEST(HeightmapVolumeTest, AutomaticCellSizeFollowsDensity) {
     HeightmapConfig config;
     const double sparse = AutomaticCellSize(1500, kOpening, config);
     const double dense = AutomaticCellSize(150000, kOpening, config);
-    EXPECT_NEAR(sparse, std::sqrt(16.0 * kOpening.Area() / 1500), 1e-12);
+    // The density target's size, within half a step (2^(1/16)) of it, on the ladder.
+    const double target = std::sqrt(16.0 * kOpening.Area() / 1500);
+    EXPECT_LE(std::abs(std::log2(sparse / target)), 1.0 / 16.0 + 1e-12);
+    const double steps = 8.0 * std::log2(sparse / config.min_cell_m);
+    EXPECT_NEAR(steps, std::round(steps), 1e-9);
     EXPECT_GT(sparse, dense);
     EXPECT_GE(dense, config.min_cell_m);
+    // Scans a little denser or sparser share the grid.
+    EXPECT_EQ(AutomaticCellSize(1480, kOpening, config), sparse);
+    EXPECT_EQ(AutomaticCellSize(1520, kOpening, config), sparse);
 }
 
 TEST(HeightmapVolumeTest, NoScanPointsIsFailedPrecondition) {
@@ -236,6 +243,32 @@ TEST(HeightmapVolumeTest, HiddenStripOfSoilCarriesItsRangeAsUncertainty) {
     EXPECT_GT(hidden->unobserved_uncertainty_m3, strip_m2 * 0.1 / std::sqrt(12.0));
     EXPECT_LT(hidden->unobserved_uncertainty_m3, strip_m2 * 0.6 / std::sqrt(12.0));
     // The continued soil is right here; the truth lies within the reported range.
+    EXPECT_NEAR(hidden->volume_m3, seen_all->volume_m3, 2.0 * hidden->uncertainty_m3);
+}
+
+// Soil stands no steeper than the heap slope (1:1), so a wide hidden band along the near wall
+// ranges only slope x distance around its seen edge, not from the floor to the rays over it.
+TEST(HeightmapVolumeTest, HiddenBandRangesNoSteeperThanTheHeapSlopeFromItsSeenEdge) {
+    const Surface floor = [](double, double) { return -0.6; };
+    const Surface soil = [](double x, double) { return -0.4 + 0.05 * x; };
+    const Cloud empty = Sample(floor, 20000, 0.0, 5);
+    const Cloud full = Sample(soil, 20000, 0.0, 6);
+    constexpr double kEdge = 0.05;  // the scan sees y > kEdge only
+    Cloud scan;
+    for (const auto& p : full) {
+        if (p.y() > static_cast<float>(kEdge)) scan.push_back(p);
+    }
+    HeightmapConfig config;
+    config.cell_m = 0.05;
+    const auto hidden = HeightmapVolume(Seen(empty, 0.0), Seen(scan, 0.0)[0], kOpening, config);
+    ASSERT_TRUE(hidden.ok()) << hidden.status();
+    // The band is about 1.9 m long and 0.35-0.4 m wide: a range of 2 x slope x distance to the
+    // edge integrates to 2 / sqrt(12) x L x W^2 / 2; floor to rays would be about 0.14 m^3.
+    const double bound = 2.0 / std::sqrt(12.0) * 1.9 * 0.4 * 0.4 / 2.0;
+    EXPECT_LT(hidden->unobserved_uncertainty_m3, bound);
+    EXPECT_GT(hidden->unobserved_uncertainty_m3, 0.1 * bound);
+    const auto seen_all = HeightmapVolume(Seen(empty, 0.0), Seen(full, 0.0)[0], kOpening, config);
+    ASSERT_TRUE(seen_all.ok()) << seen_all.status();
     EXPECT_NEAR(hidden->volume_m3, seen_all->volume_m3, 2.0 * hidden->uncertainty_m3);
 }
 
