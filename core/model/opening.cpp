@@ -77,13 +77,25 @@ absl::Status CheckShape(const std::vector<Eigen::Vector2d>& poly, double shortes
 
 }  // namespace
 
-Cloud ToContainerFrame(const Cloud& points, const Pose& T_scan_container) {
-    const Eigen::Matrix4f T = T_scan_container.inverse().matrix().cast<float>();
+namespace {
+
+Cloud Transformed(const Cloud& points, const Pose& pose) {
+    const Eigen::Matrix4f T = pose.matrix().cast<float>();
     const Eigen::Matrix3f R = T.topLeftCorner<3, 3>();
     const Eigen::Vector3f t = T.topRightCorner<3, 1>();
     Cloud out(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) out[i] = R * points[i] + t;
     return out;
+}
+
+}  // namespace
+
+Cloud ToContainerFrame(const Cloud& points, const Pose& T_scan_container) {
+    return Transformed(points, T_scan_container.inverse());
+}
+
+Cloud ToScanFrame(const Cloud& points, const Pose& T_scan_container) {
+    return Transformed(points, T_scan_container);
 }
 
 absl::StatusOr<Opening> MakeOpening(const Corners& corners, const Cloud& empty_scan,

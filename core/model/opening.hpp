@@ -30,5 +30,7 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners_scan, const Cloud& em
 
 /// `points` mapped from the scan frame into the container frame by `T_scan_container`.
 Cloud ToContainerFrame(const Cloud& points, const Pose& T_scan_container);
+/// The inverse: container-frame points into the scan frame.
+Cloud ToScanFrame(const Cloud& points, const Pose& T_scan_container);
 
 }  // namespace soilvol::model

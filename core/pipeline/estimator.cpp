@@ -92,13 +92,9 @@ absl::StatusOr<align::SeenThrough> CheckFreeSpace(const model::ContainerModel& m
                                                   const Cloud& scan,
                                                   const align::AlignResult& alignment,
                                                   const EstimateConfig& config) {
-    Cloud outside;
-    outside.reserve(model.alignment_points.size());
-    for (const auto& p : model.alignment_points) {
-        outside.push_back((alignment.T_scan_container * p.cast<double>()).cast<float>());
-    }
-    const align::SeenThrough seen =
-        align::SeenThroughShare(outside, scan, model.noise_sigma_m, config.seen_through);
+    const align::SeenThrough seen = align::SeenThroughShare(
+        model::ToScanFrame(model.alignment_points, alignment.T_scan_container), scan,
+        model.noise_sigma_m, config.seen_through);
     if (seen.Share() <= config.max_seen_through_share) return seen;
     return absl::FailedPreconditionError(absl::StrFormat(
         "alignment rejected: the scan sees through %.0f%% of the container's outside at the "
@@ -176,10 +172,10 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
             estimate.alignment,
             SearchWider(model, pre.points, initial, std::move(estimate.alignment), config));
     }
-    estimate.timings.align_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
     SOILVOL_ASSIGN_OR_RETURN(estimate.seen_through,
                              CheckFreeSpace(model, pre.points, estimate.alignment, config));
+    estimate.timings.align_ms = timer.Lap();  // the gate belongs to the alignment
     // Sec. 3.4: grid and integrate in the container frame.
     const Cloud aligned = model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container);
     SOILVOL_ASSIGN_OR_RETURN(
