@@ -8,6 +8,7 @@
 #include "absl/strings/str_format.h"
 #include "bench/stereo_trial.hpp"
 #include "bench/trial.hpp"
+#include "core/common/statistics.hpp"
 
 namespace soilvol::bench {
 namespace {
@@ -15,15 +16,12 @@ namespace {
 constexpr double kLitre = 1000.0;
 constexpr double kShares[] = {0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.15};
 
-double Median(std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-}
+double MedianOrZero(std::vector<double> v) { return v.empty() ? 0.0 : Median(std::move(v)); }
 
 struct FillRow {
     std::vector<double> true_l, error_l;
     int failures = 0;
+    int within_two_sigma = 0;
 };
 
 // One container over the seeds: calibration, registration and every fill per seed.
@@ -59,7 +57,9 @@ std::string ContainerRows(sim::ContainerKind kind, int seeds, std::ostream& kv) 
                 continue;
             }
             rows[i].true_l.push_back(pair.scene.true_volume_m3 * kLitre);
-            rows[i].error_l.push_back((e->estimate.volume_m3 - pair.scene.true_volume_m3) * kLitre);
+            const double error_m3 = e->estimate.volume_m3 - pair.scene.true_volume_m3;
+            rows[i].error_l.push_back(error_m3 * kLitre);
+            if (std::abs(error_m3) <= 2.0 * e->estimate.uncertainty_m3) ++rows[i].within_two_sigma;
         }
     }
     std::ostringstream md;
@@ -68,10 +68,11 @@ std::string ContainerRows(sim::ContainerKind kind, int seeds, std::ostream& kv) 
     md << absl::StrFormat(
         "**%s**, %.2f m away. Chessboard calibration: baseline error %+.2f%% (median), RMS "
         "%.3f px; struck capacity from the registered model %+.1f L on %.1f L.\n\n",
-        ContainerName(kind), setup.view.distance_m, Median(baseline_err), Median(rms),
+        ContainerName(kind), setup.view.distance_m, MedianOrZero(baseline_err), MedianOrZero(rms),
         mean_struck_err, struck * kLitre);
     md << "| fill (share of depth) | true L | mean error L | max abs error L | max abs error, % of "
-          "struck | failures |\n|---|---|---|---|---|---|\n";
+          "struck | 2-sigma | failures |\n|---|---|---|---|---|---|---|\n";
+    int within = 0, answered = 0;
     for (std::size_t i = 0; i < rows.size(); ++i) {
         const FillRow& r = rows[i];
         double truth = 0.0, mean = 0.0, worst = 0.0;
@@ -81,14 +82,19 @@ std::string ContainerRows(sim::ContainerKind kind, int seeds, std::ostream& kv) 
             worst = std::max(worst, std::abs(r.error_l[k]));
         }
         const double pct = 100.0 * worst / (struck * kLitre);
-        md << absl::StrFormat("| %.0f%% | %.1f | %+.1f | %.1f | %.2f | %d/%d |\n", 100 * kShares[i],
-                              truth, mean, worst, pct, r.failures, seeds);
+        within += r.within_two_sigma;
+        answered += static_cast<int>(r.error_l.size());
+        md << absl::StrFormat("| %.0f%% | %.1f | %+.1f | %.1f | %.2f | %d/%zu | %d/%d |\n",
+                              100 * kShares[i], truth, mean, worst, pct, r.within_two_sigma,
+                              r.error_l.size(), r.failures, seeds);
         kv << absl::StrFormat(
             "stereo container=\"%s\" share=%.2f true_l=%.2f err_l=%+.2f max_abs_err_l=%.2f "
             "max_abs_pct_struck=%.2f failures=%d\n",
             ContainerName(kind), kShares[i], truth, mean, worst, pct, r.failures);
     }
-    md << "\n";
+    md << absl::StrFormat(
+        "\n2-sigma coverage (share of answers with |error| <= 2 x the reported 1-sigma): %.2f.\n\n",
+        answered > 0 ? static_cast<double>(within) / answered : 0.0);
     return md.str();
 }
 
