@@ -12,7 +12,6 @@ namespace {
 
 constexpr double kMinCellM = 0.005;
 constexpr double kMaxCellM = 2.0;
-constexpr double kMaxCells = 1e6;
 constexpr double kMaxDensityKgM3 = 30000.0;
 constexpr double kPaperMinPointsPerCell = 4.0;
 
@@ -39,11 +38,11 @@ absl::StatusOr<pipeline::EstimateConfig> EstimateConfigFor(const v1::EstimateVol
             return absl::InvalidArgumentError(
                 absl::StrCat("grid_cell_m: must be in [", kMinCellM, ", ", kMaxCellM, "] metres"));
         }
-        const double cells = container.opening_area_m2() / (cell * cell);
-        if (cells > kMaxCells) {
-            return absl::InvalidArgumentError(
-                absl::StrCat("grid_cell_m: ", cell, " m gives ", static_cast<long long>(cells),
-                             " cells over the opening; at most ", kMaxCells, " are allowed"));
+        const double cells = volume::GridCells(model.opening.polygon, cell);
+        if (cells > config.heightmap.max_cells) {
+            return absl::InvalidArgumentError(absl::StrCat(
+                "grid_cell_m: ", cell, " m gives ", static_cast<long long>(cells),
+                " cells over the opening; at most ", config.heightmap.max_cells, " are allowed"));
         }
         // The paper's per-cell planes need points in (nearly) every cell; below that its hole
         // filling extrapolates far planes into nonsense. The registration scan's density tells.

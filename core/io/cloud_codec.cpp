@@ -39,6 +39,10 @@ absl::StatusOr<DecodedCloud> DecodeRaw(std::string_view bytes) {
             "raw xyz: size ", bytes.size(), " bytes is not a multiple of 12 (float32 x, y, z)"));
     }
     const std::size_t count = bytes.size() / kRawPointBytes;
+    if (count > detail::kMaxPoints) {
+        return absl::InvalidArgumentError(absl::StrCat("raw xyz: ", count, " points is more than the ",
+                                                       detail::kMaxPoints, " a scan may hold"));
+    }
     constexpr bool kSwap = !detail::kHostIsLittleEndian;
     constexpr auto kF32 = detail::ScalarType::kFloat32;
     detail::PointSink sink(CloudFormat::kRawXyzF32, count);

@@ -11,6 +11,7 @@
 #include "core/common/status_macros.hpp"
 #include "core/io/point_sink.hpp"
 #include "core/io/scalar_type.hpp"
+#include "core/io/text_scanner.hpp"
 
 namespace soilvol::io::detail {
 namespace {
@@ -102,6 +103,10 @@ absl::StatusOr<DecodedCloud> DecodePcdCompressedBody(const PcdHeader& header,
     if (uncompressed != expected) {
         return BodyError(absl::StrCat("uncompressed size ", uncompressed,
                                       " != POINTS * point size = ", expected));
+    }
+    if (uncompressed > detail::kMaxDecodedBytes) {
+        return BodyError(absl::StrCat("uncompressed size ", uncompressed, " is more than the ",
+                                      detail::kMaxDecodedBytes, " bytes a scan may expand to"));
     }
     if (uncompressed > kMaxLzfRatio * compressed) {
         return BodyError(absl::StrCat("uncompressed size ", uncompressed, " is implausible for ",

@@ -192,6 +192,10 @@ class PcdHeaderParser {
         if (header_.points == 0) {
             return absl::InvalidArgumentError("cloud has no points (PCD POINTS is 0)");
         }
+        if (header_.points > kMaxPoints) {
+            return HeaderError(absl::StrCat("POINTS ", header_.points, " is more than the ",
+                                            kMaxPoints, " a scan may hold"));
+        }
         return absl::OkStatus();
     }
 

@@ -58,6 +58,11 @@ class PlyHeaderParser {
         if (header_.elements[header_.vertex_element].count == 0) {
             return absl::InvalidArgumentError("cloud has no points (PLY vertex count is 0)");
         }
+        if (header_.elements[header_.vertex_element].count > kMaxPoints) {
+            return HeaderError(absl::StrCat("vertex count ",
+                                            header_.elements[header_.vertex_element].count,
+                                            " is more than the ", kMaxPoints, " a scan may hold"));
+        }
         return std::move(header_);
     }
 

@@ -12,6 +12,11 @@ namespace soilvol::io::detail {
 
 /// Longest header accepted [bytes]; a header without its end is rejected after this many.
 inline constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
+/// Points one cloud may declare (a dense lidar sweep holds a few million); the estimate of the
+/// largest stays within the per-request memory budget (server/README.md, Limits).
+inline constexpr std::uint64_t kMaxPoints = 5'000'000;
+/// Bytes a compressed body may expand to before it is decoded.
+inline constexpr std::uint64_t kMaxDecodedBytes = 256ull << 20;
 
 /// Splits bytes into lines ending in '\n' (a '\r' before it is dropped). Lines ending past
 /// `limit` bytes are not returned; a last line without '\n' is returned as unterminated.

@@ -27,6 +27,23 @@ absl::Status CheckCorners(const Corners& corners, const OpeningConfig& config) {
                 "opening corners %d and %d are %.3f m apart (minimum %.3f m): coincident corners",
                 i, (i + 1) % 4, edge, config.min_edge_m));
         }
+        if (edge > config.max_edge_m) {
+            return absl::InvalidArgumentError(absl::StrFormat(
+                "opening.corners: corners %d and %d are %.1f m apart; openings up to %.0f m a "
+                "side are served",
+                i, (i + 1) % 4, edge, config.max_edge_m));
+        }
+    }
+    // Shoelace area of the corners projected on their best plane is at most that of the
+    // triangle fan in 3D: the fan bounds it without a plane fit.
+    const Eigen::Vector3d fan =
+        0.5 * ((corners[1] - corners[0]).cross(corners[2] - corners[0]) +
+               (corners[2] - corners[0]).cross(corners[3] - corners[0]));
+    if (fan.norm() > config.max_area_m2) {
+        return absl::InvalidArgumentError(
+            absl::StrFormat("opening.corners: the opening spans %.0f m^2; openings up to %.0f m^2 "
+                            "are served",
+                            fan.norm(), config.max_area_m2));
     }
     return absl::OkStatus();
 }

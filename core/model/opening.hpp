@@ -7,7 +7,12 @@
 namespace soilvol::model {
 
 struct OpeningConfig {
-    double min_edge_m = 0.05;             ///< shorter opening edges are a marking mistake
+    double min_edge_m = 0.05;  ///< shorter opening edges are a marking mistake
+    /// The containers served: excavator and loader buckets (0.3-6 m), truck bodies and bins (up
+    /// to about 12 m), rail wagons (up to 25 m). Larger openings are refused before anything is
+    /// allocated for them.
+    double max_edge_m = 30.0;
+    double max_area_m2 = 400.0;
     double max_nonplanarity = 0.15;       ///< corner offset from their plane / shortest edge
     double min_corner_area_ratio = 0.02;  ///< each corner triangle vs the opening area
 };

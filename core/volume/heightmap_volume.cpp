@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "absl/strings/str_cat.h"
 #include "core/common/statistics.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/volume/free_space.hpp"
@@ -162,17 +163,29 @@ std::vector<double> BoundUnobservedSoil(const Grid& grid, const std::vector<doub
 
 }  // namespace
 
+double GridCells(const Polygon2d& opening, double cell_m) {
+    const Eigen::Vector2d extent = opening.Max() - opening.Min();
+    return std::ceil(extent.x() / cell_m) * std::ceil(extent.y() / cell_m);
+}
+
 double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening,
                          const HeightmapConfig& config) {
     const Eigen::Vector2d extent = opening.Max() - opening.Min();
     const double max_cell =
         std::max(config.min_cell_m, config.max_cell_fraction * extent.minCoeff());
     if (points_in_opening == 0) return max_cell;
-    const double cell = std::sqrt(config.target_points_per_cell * opening.Area() /
-                                  static_cast<double>(points_in_opening));
+    const double box_m2 = extent.prod();
+    const double cell = std::max(std::sqrt(config.target_points_per_cell * opening.Area() /
+                                           static_cast<double>(points_in_opening)),
+                                 std::sqrt(box_m2 / config.max_cells));
     if (!(cell > config.min_cell_m)) return std::min(config.min_cell_m, max_cell);
     constexpr double kStepsPerOctave = 8.0;
-    const double steps = std::round(kStepsPerOctave * std::log2(cell / config.min_cell_m));
+    double steps = std::round(kStepsPerOctave * std::log2(cell / config.min_cell_m));
+    // Rounding never takes the cell count past its limit.
+    if (GridCells(opening, config.min_cell_m * std::exp2(steps / kStepsPerOctave)) >
+        config.max_cells) {
+        steps += 1.0;
+    }
     return std::min(config.min_cell_m * std::exp2(steps / kStepsPerOctave), max_cell);
 }
 
@@ -245,6 +258,11 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const 
         config.cell_m > 0.0
             ? config.cell_m
             : AutomaticCellSize(CountInside(column.points, opening), opening, config);
+    if (!(GridCells(opening, cell_m) <= config.max_cells)) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "grid_cell_m: ", cell_m, " m cells give ", GridCells(opening, cell_m),
+            " cells over the opening; at most ", config.max_cells, " are allowed"));
+    }
     VolumeResult result;
     result.grid = MakeGrid(opening, cell_m);
     const Grid& grid = result.grid;

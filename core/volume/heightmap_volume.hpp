@@ -20,11 +20,17 @@ struct HeightmapConfig {
     double target_points_per_cell = 16.0;  ///< density target of the automatic cell size
     double min_cell_m = 0.02;
     double max_cell_fraction = 0.25;     ///< automatic cells stay below this share of the opening
+    /// Automatic cells grow until the opening's bounding box holds at most this many (memory:
+    /// about 200 bytes a cell for an estimate); explicit cells beyond it are refused.
+    double max_cells = 250000.0;
     double max_heap_slope = 1.0;         ///< scan points above a heap this steep are ignored
     double column_margin_m = 0.15;       ///< points this far below the empty surface are ignored
     cloud::RayWeightConfig ray_weights;  ///< how the points' height weights are computed
     SurfaceConfig surface;
 };
+
+/// Cells [count] of a grid of `cell_m` over the opening's bounding box.
+double GridCells(const Polygon2d& opening, double cell_m);
 
 /// Cell size [m] the automatic rule picks for `points_in_opening` points over the opening: the
 /// density target's size, rounded to a step of 2^(1/8) from min_cell_m (so that scans of one

@@ -176,10 +176,12 @@ TEST(PcdDecoderTest, TruncatedBinaryIsRejected) {
 
 TEST(PcdDecoderTest, AbsurdPointCountIsRejectedBeforeAllocating) {
     const std::string bytes =
-        XyzHeader("WIDTH 4000000000\nHEIGHT 1\n", "binary") + std::string(20, '\0');
-    EXPECT_TRUE(IsInvalidWith(DecodeCloud(bytes), "needs 48000000000 bytes but only 20 follow"));
-    const std::string ascii = XyzHeader("WIDTH 4000000000\nHEIGHT 1\n", "ascii") + "1 2 3\n";
+        XyzHeader("WIDTH 4000000\nHEIGHT 1\n", "binary") + std::string(20, '\0');
+    EXPECT_TRUE(IsInvalidWith(DecodeCloud(bytes), "needs 48000000 bytes but only 20 follow"));
+    const std::string ascii = XyzHeader("WIDTH 4000000\nHEIGHT 1\n", "ascii") + "1 2 3\n";
     EXPECT_TRUE(IsInvalidWith(DecodeCloud(ascii), "cannot fit"));
+    const std::string huge = XyzHeader("WIDTH 4000000000\nHEIGHT 1\n", "ascii") + "1 2 3\n";
+    EXPECT_TRUE(IsInvalidWith(DecodeCloud(huge), "a scan may hold"));
 }
 
 TEST(PcdDecoderTest, CompressedSizeBeyondDataIsRejected) {
@@ -193,11 +195,26 @@ TEST(PcdDecoderTest, CompressedSizeBeyondDataIsRejected) {
 }
 
 TEST(PcdDecoderTest, AbsurdUncompressedClaimIsRejectedBeforeAllocating) {
-    std::string bytes = XyzHeader("WIDTH 300000000\nHEIGHT 1\n", "binary_compressed");
+    std::string bytes = XyzHeader("WIDTH 3000000\nHEIGHT 1\n", "binary_compressed");
     Append<std::uint32_t>(10, &bytes);
-    Append<std::uint32_t>(3600000000u, &bytes);
+    Append<std::uint32_t>(36000000u, &bytes);
     bytes += std::string(10, '\x1f');
-    EXPECT_TRUE(IsInvalidWith(DecodeCloud(bytes), "uncompressed size 3600000000 is implausible"));
+    EXPECT_TRUE(IsInvalidWith(DecodeCloud(bytes), "uncompressed size 36000000 is implausible"));
+}
+
+// Issue 12's attack: sizes consistent with the header and a plausible ratio, but a body that
+// would expand past what a scan may (4.2 GB peak before "corrupt"). Refused before allocating.
+TEST(PcdDecoderTest, CompressedBodyBeyondTheDecodeBudgetIsRejectedBeforeAllocating) {
+    // 4.5 million points of 76 bytes (x y z and 16 floats more): 342 MB uncompressed.
+    std::string bytes =
+        "FIELDS x y z pad\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 16\nWIDTH 4500000\n"
+        "HEIGHT 1\nDATA binary_compressed\n";
+    constexpr std::uint32_t kUncompressed = 4500000u * 76u;
+    constexpr std::uint32_t kCompressed = kUncompressed / 50;
+    Append<std::uint32_t>(kCompressed, &bytes);
+    Append<std::uint32_t>(kUncompressed, &bytes);
+    bytes += std::string(kCompressed, '\x1f');
+    EXPECT_TRUE(IsInvalidWith(DecodeCloud(bytes), "bytes a scan may expand to"));
 }
 
 TEST(PcdDecoderTest, UncompressedSizeMismatchIsRejected) {

@@ -81,6 +81,25 @@ TEST(OpeningTest, NonFiniteCornerIsRejected) {
     ExpectInvalid(c, "not finite");
 }
 
+// The attack of issue 12: a 3 km opening in a 47 KB request. Openings beyond the containers
+// served are refused by their corners, before any grid or raster is sized from them.
+TEST(OpeningTest, OpeningsBeyondTheServedContainersAreRejectedByTheirCorners) {
+    for (const double side : {31.0, 3000.0, 1e30}) {
+        Corners corners = FlatCorners();
+        corners[1].x() = corners[0].x() + side;
+        corners[2].x() = corners[0].x() + side;
+        ExpectInvalid(corners, "opening.corners");
+    }
+    // 25 x 20 m: each side is allowed, the area (500 m^2) is not.
+    const Corners wide = {Eigen::Vector3d(-12.5, -10.0, 2.0), Eigen::Vector3d(12.5, -10.0, 2.0),
+                          Eigen::Vector3d(12.5, 10.0, 2.0), Eigen::Vector3d(-12.5, 10.0, 2.0)};
+    ExpectInvalid(wide, "m^2");
+    // A 25 x 4 m rail wagon is served.
+    const Corners wagon = {Eigen::Vector3d(-12.5, -2.0, 2.0), Eigen::Vector3d(12.5, -2.0, 2.0),
+                           Eigen::Vector3d(12.5, 2.0, 2.0), Eigen::Vector3d(-12.5, 2.0, 2.0)};
+    EXPECT_TRUE(MakeOpening(wagon, FloorBelow(2.5), OpeningConfig{}).ok());
+}
+
 TEST(OpeningTest, NoPointOverTheOpeningIsRejected) {
     Cloud elsewhere = FloorBelow(2.5);
     for (auto& p : elsewhere) p.x() += 5.0f;

@@ -179,6 +179,24 @@ TEST(HeightmapVolumeTest, AutomaticCellSizeFollowsDensity) {
     EXPECT_EQ(AutomaticCellSize(1520, kOpening, config), sparse);
 }
 
+// However dense the scan, the automatic grid stays within max_cells; an explicit cell past it is
+// refused by name before anything is allocated for it.
+TEST(HeightmapVolumeTest, GridsStayWithinTheCellBudget) {
+    HeightmapConfig config;
+    const Polygon2d wagon({{-12.5, -2.0}, {12.5, -2.0}, {12.5, 2.0}, {-12.5, 2.0}});
+    const double cell = AutomaticCellSize(50000000, wagon, config);
+    EXPECT_LE(GridCells(wagon, cell), config.max_cells);
+    EXPECT_GT(GridCells(wagon, cell), 0.5 * config.max_cells);
+    config.cell_m = 0.005;  // 16 million cells over the wagon
+    const Cloud empty = Sample([](double, double) { return -0.6; }, 2000, 0.0, 1, wagon);
+    const Cloud scan = Sample([](double, double) { return -0.3; }, 2000, 0.0, 2, wagon);
+    const auto result =
+        HeightmapVolume(Seen(empty, 0.0, true), Seen(scan, 0.0, true)[0], wagon, config);
+    ASSERT_FALSE(result.ok());
+    EXPECT_EQ(result.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(result.status().message().find("grid_cell_m"), std::string::npos) << result.status();
+}
+
 TEST(HeightmapVolumeTest, NoScanPointsIsFailedPrecondition) {
     const Cloud empty = Sample([](double, double) { return -0.6; }, 2000, 0.0, 1);
     const auto result =
