@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -8,10 +9,15 @@
 
 namespace soilvol::stereo {
 
-/// Decodes an encoded image (PNG, JPEG, TIFF, BMP, PGM: whatever OpenCV reads) of 8 or 16 bits,
-/// grey or colour, into 8-bit grey. 16-bit images are shifted right just enough that their
-/// largest value fits 8 bits. InvalidArgument naming `field` for empty or undecodable bytes,
-/// or a side longer than max_side_px.
+/// Pixels one image may hold (a 24-megapixel camera): a larger one is refused from its header.
+inline constexpr std::int64_t kMaxImagePixels = 24'000'000;
+
+/// Decodes an encoded PNG, JPEG, BMP, PNM (P1-P6) or TIFF image of 8 or 16 bits, grey or
+/// colour, into 8-bit grey; the size its header declares is checked before anything is
+/// decoded, and other formats (WebP, JPEG 2000, OpenEXR, ...) are refused. 16-bit images are
+/// shifted right just enough that their largest value fits 8 bits. InvalidArgument naming
+/// `field` for empty, undecodable or other-format bytes, a side longer than max_side_px, or
+/// more than kMaxImagePixels pixels.
 absl::StatusOr<GreyImage> DecodeGrey(std::string_view bytes, std::string_view field,
                                      int max_side_px = 8192);
 

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "core/stereo/image_codec.hpp"
 #include "core/stereo/image_header.hpp"
 
 namespace soilvol::stereo::detail {
@@ -80,14 +81,22 @@ absl::StatusOr<cv::Mat> DecodeGreyMat(std::string_view bytes, std::string_view f
     if (too_large == nullptr) too_large = &unused;
     *too_large = false;
     if (bytes.empty()) return absl::InvalidArgumentError(absl::StrCat(name, ": empty image"));
-    // Refuse oversized headers before OpenCV allocates for them.
-    if (const auto size = PeekImageSize(bytes);
-        size && (size->width > max_side_px || size->height > max_side_px)) {
+    const absl::Status undecodable = absl::InvalidArgumentError(
+        absl::StrCat(name, ": not a decodable image (PNG, JPEG, BMP, PNM or TIFF)"));
+    // Only formats whose header tells the size are decoded, and only within the budget: OpenCV
+    // allocates for what a header declares (a 10 KB WebP can declare 16383^2).
+    const auto size = PeekImageSize(bytes);
+    if (!size) return undecodable;
+    if (size->width > max_side_px || size->height > max_side_px) {
         *too_large = true;
         return TooLarge(name, size->width, size->height, max_side_px);
     }
-    const absl::Status undecodable =
-        absl::InvalidArgumentError(absl::StrCat(name, ": not a decodable image"));
+    if (size->width * size->height > kMaxImagePixels) {
+        *too_large = true;
+        return absl::InvalidArgumentError(absl::StrCat(name, ": ", size->width, "x", size->height,
+                                                       " is more than the ", kMaxImagePixels,
+                                                       " pixels an image may hold"));
+    }
     try {
         const cv::Mat raw(1, static_cast<int>(std::min<size_t>(bytes.size(), INT32_MAX)), CV_8UC1,
                           const_cast<char*>(bytes.data()));

@@ -138,7 +138,8 @@ TEST_F(SamplePairsTest, BadPairsAreSkippedWithTheirReason) {
     ASSERT_TRUE(result.ok()) << result.status();
     ASSERT_EQ(result->skipped.size(), 4u);
     EXPECT_EQ(result->skipped[0].index, 5);
-    EXPECT_EQ(result->skipped[0].reason, "left: not a decodable image");
+    EXPECT_EQ(result->skipped[0].reason,
+              "left: not a decodable image (PNG, JPEG, BMP, PNM or TIFF)");
     EXPECT_EQ(result->skipped[1].index, 6);
     EXPECT_EQ(result->skipped[1].reason, "left is 640x480 but right is 480x640");
     EXPECT_EQ(result->skipped[2].index, 7);

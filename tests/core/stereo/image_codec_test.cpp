@@ -170,6 +170,29 @@ TEST(DecodeGreyTest, HugePngHeaderFailsFastBeforeDecoding) {
     }
 }
 
+// Issue 12: a 10 KB WebP declaring 16383^2 and a JPEG 2000 declaring 16000^2 peaked at 1 GB
+// each before the size check; an 8192^2 16-bit PNG decoded fully (3.7 s). Formats whose header
+// is not checked are refused unread; a header past the pixel budget is refused unread.
+TEST(DecodeGreyTest, UncheckedFormatsAndPixelBudgetAreRefusedBeforeDecoding) {
+    const cv::Mat small = SmoothMat(16, 16, 1);
+    std::vector<uchar> webp;
+    if (cv::imencode(".webp", small, webp)) {
+        EXPECT_TRUE(IsInvalidWith(DecodeGrey(std::string(webp.begin(), webp.end()), "left"),
+                                  "left: not a decodable image (PNG, JPEG, BMP, PNM or TIFF)"));
+    }
+    const std::string jp2("\0\0\0\x0cjP  \r\n\x87\n", 12);
+    EXPECT_TRUE(IsInvalidWith(DecodeGrey(jp2 + std::string(1000, 'x'), "right"),
+                              "right: not a decodable image"));
+    const auto start = std::chrono::steady_clock::now();
+    const auto square = DecodeGrey(PngClaiming(8192, 8192), "left");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_TRUE(IsInvalidWith(square, "left: 8192x8192 is more than the 24000000 pixels"));
+    EXPECT_LT(seconds, 0.05);
+    // Within the budget, a big header is decoded (here: it is truncated, so it fails there).
+    EXPECT_TRUE(IsInvalidWith(DecodeGrey(PngClaiming(4000, 3000), "left"), "left"));
+}
+
 TEST(DecodeGreyTest, OversizeHeadersOfEachFormatAreRefused) {
     const std::string expected = "left: 9000x10 is larger than 8192 px";
     const cv::Mat small = SmoothMat(8, 8, 1);
