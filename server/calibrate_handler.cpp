@@ -13,16 +13,9 @@
 namespace soilvol::server {
 namespace {
 
-constexpr int kMaxChessboardPairs = 200;
-
 absl::StatusOr<stereo::StereoCalibration> FromChessboards(
     const v1::ChessboardCalibration& request) {
     SOILVOL_ASSIGN_OR_RETURN(const stereo::ChessboardSpec board, ToChessboardSpec(request));
-    if (request.pairs_size() > kMaxChessboardPairs) {
-        return absl::InvalidArgumentError(absl::StrCat("chessboard.pairs: at most ",
-                                                       kMaxChessboardPairs, " pairs, got ",
-                                                       request.pairs_size()));
-    }
     std::vector<stereo::ImagePair> pairs;
     pairs.reserve(static_cast<std::size_t>(request.pairs_size()));
     for (int i = 0; i < request.pairs_size(); ++i) {

@@ -1,5 +1,6 @@
 #include "core/stereo/calibration.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <new>
@@ -10,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
 #include "core/stereo/chessboard_detector.hpp"
+#include "core/stereo/image_header.hpp"
 #include "core/stereo/opencv_camera.hpp"
 #include "core/stereo/rectification.hpp"
 
@@ -134,9 +136,35 @@ void FillPairFigures(const detail::BoardViews& views, const StereoFit& fit,
     calibration->mean_epipolar_px = epipolar_sum / static_cast<double>(views.indices.size());
 }
 
+// The pairs' count and pixels from their headers, before any image is decoded.
+absl::Status CheckWork(const std::vector<ImagePair>& pairs, const CalibrationConfig& config) {
+    if (pairs.size() > config.max_pairs) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("pairs: at most ", config.max_pairs, " pairs, got ", pairs.size()));
+    }
+    std::int64_t total = 0;
+    const std::int64_t side = config.max_image_side_px;
+    for (const ImagePair& pair : pairs) {
+        for (const std::string_view image : {pair.left, pair.right}) {
+            // Sides past the limit are refused image by image; count them at the limit.
+            if (const auto size = detail::PeekImageSize(image)) {
+                total += std::clamp<std::int64_t>(size->width, 0, side) *
+                         std::clamp<std::int64_t>(size->height, 0, side);
+            }
+        }
+    }
+    if (total > config.max_total_pixels) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("pairs: ", total, " pixels in all; at most ", config.max_total_pixels,
+                         " per call (fewer pairs, or smaller images)"));
+    }
+    return absl::OkStatus();
+}
+
 absl::StatusOr<StereoCalibration> Calibrate(const std::vector<ImagePair>& pairs,
                                             const ChessboardSpec& board,
                                             const CalibrationConfig& config) {
+    SOILVOL_RETURN_IF_ERROR(CheckWork(pairs, config));
     SOILVOL_ASSIGN_OR_RETURN(detail::BoardViews views,
                              detail::DetectBoards(pairs, board, config.max_image_side_px));
     const std::size_t needed = std::max(config.min_pairs, kFewestPairs);
@@ -157,6 +185,19 @@ absl::StatusOr<StereoCalibration> Calibrate(const std::vector<ImagePair>& pairs,
     }
     calibration->rms_reprojection_px = fit.rms_px;
     FillPairFigures(views, fit, &*calibration);
+    if (!(calibration->baseline_m >= config.min_baseline_m)) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "the chessboards gave a degenerate rig: baseline ", calibration->baseline_m,
+            " m (at least ", config.min_baseline_m, " m), reprojection RMS ", fit.rms_px,
+            " px; the boards must be seen by both cameras from several angles"));
+    }
+    if (!(calibration->mean_epipolar_px <= config.max_epipolar_px)) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("the chessboards gave a degenerate rig: rectified corners differ by ",
+                         calibration->mean_epipolar_px, " px in row on average (at most ",
+                         config.max_epipolar_px, " px), baseline ", calibration->baseline_m,
+                         " m; check that left and right images are paired and from a fixed rig"));
+    }
     calibration->skipped = std::move(views.skipped);
     calibration->source = "chessboard";
     return calibration;

@@ -112,6 +112,17 @@ TEST_F(SamplePairsTest, TooFewPairsIsFailedPrecondition) {
                          "3 usable chessboard pairs of 3, 5 needed"));
 }
 
+// Issue 12 item 8: a rig that is no rig (each left image given as its own right) is refused
+// with its figures, not stored with a baseline of nanometres.
+TEST_F(SamplePairsTest, DegenerateRigIsRefusedWithItsFigures) {
+    std::vector<ImagePair> same;
+    for (std::size_t i = 0; i < 8; ++i) same.push_back({pairs_[i].left, pairs_[i].left});
+    const auto result = CalibrateFromChessboards(same, kBoard);
+    EXPECT_TRUE(HasError(result.status(), absl::StatusCode::kFailedPrecondition,
+                         "degenerate rig: baseline"))
+        << (result.ok() ? std::to_string(result->baseline_m) : "");
+}
+
 TEST_F(SamplePairsTest, TooFewPairsListsTheSkipReasons) {
     std::vector<ImagePair> pairs(pairs_.begin(), pairs_.begin() + 4);
     pairs.push_back({"garbage", pairs_[5].right});
@@ -165,6 +176,34 @@ TEST_F(SamplePairsTest, WorseFitThanAllowedIsFailedPrecondition) {
     const auto result = CalibrateFromChessboards(pairs_, kBoard, config);
     EXPECT_TRUE(HasError(result.status(), absl::StatusCode::kFailedPrecondition,
                          "exceeds max_rms_px 0.05"));
+}
+
+// A small BMP whose header declares `width` x `height` (BMP headers carry no checksum).
+std::string BmpClaiming(std::int32_t width, std::int32_t height) {
+    std::vector<uchar> bytes;
+    cv::imencode(".bmp", cv::Mat(8, 8, CV_8UC1, cv::Scalar(90)), bytes);
+    std::string bmp(bytes.begin(), bytes.end());
+    for (int i = 0; i < 4; ++i) {
+        bmp[static_cast<std::size_t>(18 + i)] = static_cast<char>(width >> (8 * i));
+        bmp[static_cast<std::size_t>(22 + i)] = static_cast<char>(height >> (8 * i));
+    }
+    return bmp;
+}
+
+// Issue 12: 200 pairs with a 10 s deadline ran 359 s. The work a call asks for is bounded from
+// the headers, before any image is decoded or searched for corners.
+TEST(CalibrationBudgetTest, TooManyPairsOrPixelsAreRefusedBeforeDecoding) {
+    const std::string small = BmpClaiming(8, 8);
+    const std::vector<ImagePair> many(201, ImagePair{small, small});
+    const auto too_many = CalibrateFromChessboards(many, kBoard);
+    EXPECT_TRUE(HasError(too_many.status(), absl::StatusCode::kInvalidArgument,
+                         "pairs: at most 200 pairs, got 201"));
+    // Four pairs declaring 8000 x 8000 each: 512 million pixels.
+    const std::string big = BmpClaiming(8000, 8000);
+    const std::vector<ImagePair> huge(4, ImagePair{big, big});
+    const auto too_big = CalibrateFromChessboards(huge, kBoard);
+    EXPECT_TRUE(HasError(too_big.status(), absl::StatusCode::kInvalidArgument,
+                         "pairs: 512000000 pixels in all; at most 500000000"));
 }
 
 TEST(CalibrateFromChessboardsTest, BadBoardOrConfigIsInvalidArgument) {
