@@ -114,25 +114,35 @@ absl::StatusOr<double> ParseGrpcTimeout(const std::string& value) {
         return absl::InvalidArgumentError(
             absl::StrCat("Grpc-Timeout: '", value, "' does not start with digits"));
     }
-    const auto ms = static_cast<double>(amount);
+    const auto amount_d = static_cast<double>(amount);
+    double ms = 0.0;
     switch (value.back()) {
         case 'H':
-            return ms * 3600e3;
+            ms = amount_d * 3600e3;
+            break;
         case 'M':
-            return ms * 60e3;
+            ms = amount_d * 60e3;
+            break;
         case 'S':
-            return ms * 1e3;
+            ms = amount_d * 1e3;
+            break;
         case 'm':
-            return ms;
+            ms = amount_d;
+            break;
         case 'u':
-            return ms * 1e-3;
+            ms = amount_d * 1e-3;
+            break;
         case 'n':
-            return ms * 1e-6;
+            ms = amount_d * 1e-6;
+            break;
         default:
             return absl::InvalidArgumentError(absl::StrCat("Grpc-Timeout: unit '",
                                                            std::string(1, value.back()),
                                                            "' is not one of H, M, S, m, u, n"));
     }
+    // A clock of nanoseconds overflows past 292 years; no call needs more than a day.
+    constexpr double kDayMs = 86400e3;
+    return std::min(ms, kDayMs);
 }
 
 HttpGateway::HttpGateway(HttpGatewayOptions options, std::map<std::string, Rpc> rpcs,
@@ -162,14 +172,50 @@ absl::StatusOr<int> HttpGateway::Start() {
     server_->set_read_timeout(60, 0);
     server_->set_write_timeout(60, 0);
     const auto handler = [this](const httplib::Request& request, httplib::Response& response) {
-        Handle(request, response);
+        Handle(request, {}, response);
+    };
+    // Bodies are read here, counted as they arrive whatever the transfer and content encoding
+    // (httplib bounds only a declared Content-Length, and inflates gzip without a bound).
+    const std::size_t limit = options_.max_body_bytes;
+    const auto with_body = [this, limit](const httplib::Request& request,
+                                         httplib::Response& response,
+                                         const httplib::ContentReader& reader) {
+        std::string body;
+        bool too_large = false;
+        const bool read = reader([&](const char* data, std::size_t length) {
+            if (length > limit - std::min(limit, body.size())) {
+                too_large = true;
+                return false;
+            }
+            body.append(data, length);
+            return true;
+        });
+        // httplib refuses a declared Content-Length past the limit before reading any of it.
+        std::uint64_t declared = 0;
+        too_large = too_large || (!read && request.has_header("Content-Length") &&
+                                  absl::SimpleAtoi(request.get_header_value("Content-Length"),
+                                                   &declared) &&
+                                  declared > limit);
+        if (too_large) {
+            response.set_header("Connection", "close");
+            SendError(response,
+                      absl::ResourceExhaustedError(absl::StrCat(
+                          "request body exceeds the limit of ", options_.max_body_bytes, " bytes")),
+                      413);
+            return;
+        }
+        if (!read) {
+            SendError(response, absl::InvalidArgumentError("request body: could not be read"));
+            return;
+        }
+        Handle(request, body, response);
     };
     // One router for every verb, so that unknown paths and verbs get JSON errors too.
     server_->Get(".*", handler);
-    server_->Post(".*", handler);
-    server_->Put(".*", handler);
-    server_->Patch(".*", handler);
-    server_->Delete(".*", handler);
+    server_->Post(".*", with_body);
+    server_->Put(".*", with_body);
+    server_->Patch(".*", with_body);
+    server_->Delete(".*", with_body);
     server_->Options(".*", handler);
     // Errors httplib raises itself (413 for oversize bodies, 400 for bad requests) get the
     // same JSON body as ours; ours already have one.
@@ -227,11 +273,30 @@ bool HttpGateway::ApplyCors(const httplib::Request& request, httplib::Response& 
     return true;
 }
 
-void HttpGateway::Handle(const httplib::Request& request, httplib::Response& response) {
+void HttpGateway::Handle(const httplib::Request& request, const std::string& body,
+                         httplib::Response& response) {
     const bool cors = ApplyCors(request, response);
     if (request.method == "OPTIONS") {
         response.status = cors ? 204 : 403;
         if (!cors) SendError(response, absl::PermissionDeniedError("origin not allowed"), 403);
+        return;
+    }
+    // A browser sends a simple cross-origin request (text/plain POST) without asking first: one
+    // from an origin not allowed is refused before it runs, and bodies must be JSON, which no
+    // page can send cross-origin without the preflight above.
+    if (request.has_header("Origin") && !cors) {
+        SendError(response,
+                  absl::PermissionDeniedError(absl::StrCat(
+                      "origin '", request.get_header_value("Origin"), "' is not allowed")),
+                  403);
+        return;
+    }
+    if (!body.empty() &&
+        request.get_header_value("Content-Type").rfind("application/json", 0) != 0) {
+        SendError(response,
+                  absl::InvalidArgumentError("Content-Type: request bodies must be "
+                                             "application/json"),
+                  415);
         return;
     }
     if (request.method == "GET" && request.path == "/healthz") {
@@ -256,27 +321,29 @@ void HttpGateway::Handle(const httplib::Request& request, httplib::Response& res
     call.peer = absl::StrCat(request.remote_addr, ":", request.remote_port);
     absl::StatusOr<RouteMatch> match = MatchRoute(routes_, request.method, request.path);
     if (!match.ok()) {
-        call.method = absl::StrCat(request.method, " ", request.path);
+        // One label for every path no route serves: metrics stay bounded whatever is asked.
+        call.method = "unmatched";
         dispatcher_.Refuse(call, match.status());
         const bool not_allowed = absl::IsUnimplemented(match.status());
         SendError(response, match.status(), not_allowed ? 405 : 404);
         return;
     }
     call.method = match->route->method;
-    ServeRpc(*match, request, response, std::move(call));
+    ServeRpc(*match, request, body, response, std::move(call));
 }
 
 void HttpGateway::ServeRpc(const RouteMatch& match, const httplib::Request& request,
-                           httplib::Response& response, CallContext call) {
+                           const std::string& body, httplib::Response& response,
+                           CallContext call) {
     const Rpc& rpc = rpcs_.at(match.route->method);
     std::shared_ptr<google::protobuf::Message> message = rpc.new_request();
     std::shared_ptr<google::protobuf::Message> answer = rpc.new_response();
     absl::Status parsed;
-    if (match.route->body == "*" && !request.body.empty()) {
+    if (match.route->body == "*" && !body.empty()) {
         google::protobuf::util::JsonParseOptions options;
         options.ignore_unknown_fields = false;
         const auto status =
-            google::protobuf::util::JsonStringToMessage(request.body, message.get(), options);
+            google::protobuf::util::JsonStringToMessage(body, message.get(), options);
         if (!status.ok()) {
             parsed = absl::InvalidArgumentError(
                 absl::StrCat("request body: ", std::string(status.message())));

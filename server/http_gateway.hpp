@@ -47,8 +47,11 @@ class HttpGateway {
     void BeginShutdown() { shutting_down_ = true; }
 
   private:
-    void Handle(const httplib::Request& request, httplib::Response& response);
-    void ServeRpc(const RouteMatch& match, const httplib::Request& request,
+    /// `body`: the request body as read within the limit (httplib's own request.body is not
+    /// used: it bounds neither chunked nor compressed bodies).
+    void Handle(const httplib::Request& request, const std::string& body,
+                httplib::Response& response);
+    void ServeRpc(const RouteMatch& match, const httplib::Request& request, const std::string& body,
                   httplib::Response& response, CallContext call);
     bool ApplyCors(const httplib::Request& request, httplib::Response& response) const;
 
@@ -63,7 +66,8 @@ class HttpGateway {
     std::thread thread_;
 };
 
-/// A Grpc-Timeout header value ("10S", "500m", "2M", "1H", "250u", "100n") in milliseconds.
+/// A Grpc-Timeout header value ("10S", "500m", "2M", "1H", "250u", "100n") in milliseconds;
+/// anything beyond a day (up to 99999999H) is read as a day.
 absl::StatusOr<double> ParseGrpcTimeout(const std::string& value);
 
 }  // namespace soilvol::server

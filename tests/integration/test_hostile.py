@@ -1,0 +1,187 @@
+"""Issue 12's attacks on a running server, replayed: each gets a clear 4xx at a bounded cost
+(time and the server's peak resident memory), and the server keeps serving normal calls."""
+import gzip
+import http.client
+import struct
+import sys
+import time
+import unittest
+import zlib
+
+from box_scene import box_scan, encode_ply, opening_corners
+from harness import TIME_SCALE, Server, b64, cloud_scan, corners_json, needs_own_server, shared_server
+
+
+def peak_rss_mb(server):
+    """The server process's peak resident set (VmHWM) [MiB]."""
+    with open(f"/proc/{server.proc.pid}/status") as status:
+        for line in status:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    raise RuntimeError("no VmHWM")
+
+
+def png_claiming(width, height, bit_depth=16):
+    """A PNG signature and a valid IHDR declaring `width` x `height` grey, then a tiny IDAT."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    ihdr = struct.pack(">IIBBBBB", width, height, bit_depth, 0, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) +
+            chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b""))
+
+
+def webp_claiming(width, height):
+    """A lossless WebP (VP8L) header declaring `width` x `height` (14-bit fields, minus one)."""
+    bits = (width - 1) | ((height - 1) << 14)
+    vp8l = b"\x2f" + struct.pack("<I", bits) + b"\0" * 32
+    body = b"WEBP" + b"VP8L" + struct.pack("<I", len(vp8l)) + vp8l
+    return b"RIFF" + struct.pack("<I", len(body)) + body
+
+
+def compressed_pcd_claiming(points, extra_floats):
+    """A binary_compressed PCD whose sizes agree with its header and with LZF's ratio, but whose
+    body would expand to points x (12 + 4 extra_floats) bytes."""
+    header = (f"FIELDS x y z pad\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 {extra_floats}\n"
+              f"WIDTH {points}\nHEIGHT 1\nDATA binary_compressed\n").encode()
+    uncompressed = points * (12 + 4 * extra_floats)
+    compressed = uncompressed // 50
+    return header + struct.pack("<II", compressed, uncompressed) + b"\x1f" * compressed
+
+
+class Hostile(unittest.TestCase):
+    """Cases that any server answers the same way, shared or not."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.server = shared_server()
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.server.close()
+
+    def test_kilometre_opening_is_refused_by_its_corners(self):
+        scan = cloud_scan(encode_ply(box_scan()))
+        for side in (3000.0, 1000.0, 31.0):
+            corners = [(0.0, 0.0, 2.0), (side, 0.0, 2.0), (side, side, 2.0), (0.0, side, 2.0)]
+            start = time.monotonic()
+            status, err = self.server.rest("POST", "/v1/containers",
+                                           {"containerId": "huge", "overwrite": True,
+                                            "scan": scan, "opening": corners_json(corners)})
+            self.assertEqual(status, 400, err)
+            self.assertIn("opening.corners", err["message"])
+            self.assertLess(time.monotonic() - start, 2.0 * TIME_SCALE)
+        self.assertEqual(self.server.rest("GET", "/v1/containers/huge")[0], 404)
+
+    def test_images_of_unchecked_formats_or_past_the_budget_are_not_decoded(self):
+        cases = {
+            "webp": webp_claiming(16383, 16383),
+            "jp2": b"\0\0\0\x0cjP  \r\n\x87\n" + b"\0" * 1000,
+            "png16": png_claiming(8192, 8192),
+        }
+        for name, image in cases.items():
+            pairs = [{"left": b64(image), "right": b64(image)}] * 6
+            start = time.monotonic()
+            status, err = self.server.rest(
+                "POST", "/v1/calibrations",
+                {"calibrationId": f"bomb-{name}", "overwrite": True,
+                 "chessboard": {"pairs": pairs, "innerCorners": {"cols": 9, "rows": 6},
+                                "squareSizeM": 0.025}})
+            self.assertEqual(status, 400, (name, err))
+            self.assertRegex(err["message"], "not a decodable image|pixels an image may hold|pixels in all",
+                             name)
+            self.assertLess(time.monotonic() - start, 2.0 * TIME_SCALE, name)
+
+    def test_calibration_work_is_bounded_before_decoding(self):
+        image = b64(png_claiming(640, 480, bit_depth=8))
+        status, err = self.server.rest(
+            "POST", "/v1/calibrations",
+            {"calibrationId": "many", "overwrite": True,
+             "chessboard": {"pairs": [{"left": image, "right": image}] * 201,
+                            "innerCorners": {"cols": 9, "rows": 6}, "squareSizeM": 0.025}})
+        self.assertEqual(status, 400, err)
+        self.assertIn("at most 200 pairs", err["message"])
+
+    def test_unrouted_paths_share_one_metrics_label(self):
+        before = len(self.server.rest("GET", "/metrics")[1])
+        for i in range(500):
+            status, _ = self.server.rest("GET", f"/no/such/path/{i}")
+            self.assertEqual(status, 404)
+        text = self.server.rest("GET", "/metrics")[1]
+        self.assertNotIn("/no/such/path", text)
+        self.assertLess(len(text), before + 4096)
+
+    def test_huge_grpc_timeout_is_no_deadline(self):
+        status, body = self.server.rest("GET", "/v1/containers",
+                                        headers={"Grpc-Timeout": "99999999H"})
+        self.assertEqual(status, 200, body)
+
+    def test_text_plain_bodies_are_refused(self):
+        status, err = self.server.rest("POST", "/v1/containers", raw=b'{"containerId": "plain"}',
+                                       headers={"Content-Type": "text/plain"})
+        self.assertEqual(status, 415, err)
+        self.assertEqual(self.server.rest("GET", "/v1/containers/plain")[0], 404)
+
+
+@needs_own_server
+class HostileOwnServer(unittest.TestCase):
+    """Cases that read the server's memory or need flags of their own."""
+
+    def test_chunked_body_past_the_limit_is_stopped_as_it_arrives(self):
+        with Server(args=["--workers", "1", "--max-message-mb", "1"]) as server:
+            conn = http.client.HTTPConnection("127.0.0.1", server.http_port, timeout=30)
+            conn.putrequest("POST", "/v1/containers")
+            conn.putheader("Content-Type", "application/json")
+            conn.putheader("Transfer-Encoding", "chunked")
+            conn.endheaders()
+            chunk = b"x" * (1 << 20)
+            sent = 0
+            try:
+                for _ in range(200):  # 200 MiB offered
+                    conn.send(b"%x\r\n" % len(chunk) + chunk + b"\r\n")
+                    sent += 1
+                conn.send(b"0\r\n\r\n")
+                status = conn.getresponse().status
+            except (BrokenPipeError, ConnectionResetError, http.client.HTTPException):
+                status = None  # the server stopped reading: the refusal may not be readable
+            conn.close()
+            self.assertIn(status, (None, 413))
+            self.assertLess(sent, 200 if status is None else 201)
+            self.assertLess(peak_rss_mb(server), 250.0)
+            self.assertEqual(server.rest("GET", "/v1/containers")[0], 200)
+
+    def test_gzip_body_is_counted_inflated(self):
+        with Server(args=["--workers", "1", "--max-message-mb", "1"]) as server:
+            bomb = gzip.compress(b"[" + b" " * (100 << 20) + b"]", compresslevel=9)
+            status, err = server.rest("POST", "/v1/containers", raw=bomb,
+                                      headers={"Content-Encoding": "gzip"})
+            self.assertIn(status, (413, 415), err)
+            self.assertLess(peak_rss_mb(server), 250.0)
+            self.assertEqual(server.rest("GET", "/v1/containers")[0], 200)
+
+    def test_compressed_pcd_with_consistent_huge_sizes_is_refused_before_allocating(self):
+        with Server(args=["--workers", "1", "--max-message-mb", "16"]) as server:
+            pcd = compressed_pcd_claiming(4_500_000, 16)  # 342 MB inflated, 6.8 MB sent
+            status, err = server.rest("POST", "/v1/containers",
+                                      {"containerId": "pcd", "scan": {"cloud": {"data": b64(pcd)}},
+                                       "opening": corners_json(opening_corners())})
+            self.assertEqual(status, 400, err)
+            self.assertIn("a scan may expand to", err["message"])
+            self.assertLess(peak_rss_mb(server), 400.0)
+
+    def test_disallowed_origin_is_refused_before_it_runs(self):
+        with Server(args=["--workers", "1", "--cors-origin", "https://ok.example"]) as server:
+            body = b'{"containerId": "evil", "scan": {}}'
+            for content_type in ("text/plain", "application/json"):
+                status, err = server.rest("POST", "/v1/containers", raw=body,
+                                          headers={"Origin": "https://evil.example",
+                                                   "Content-Type": content_type})
+                self.assertEqual(status, 403, err)
+            self.assertEqual(server.rest("GET", "/v1/containers/evil")[0], 404)
+            status, _ = server.rest("GET", "/v1/containers", headers={"Origin": "https://ok.example"})
+            self.assertEqual(status, 200)
+
+
+if __name__ == "__main__":
+    result = unittest.main(verbosity=2, exit=False).result
+    sys.exit(0 if result.wasSuccessful() else 1)
