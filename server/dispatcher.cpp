@@ -22,6 +22,17 @@ std::string IdsText(const CallRecord& record) {
     return text;
 }
 
+// An internal error's message (an OpenCV source path, a library's exception text) stays in
+// the log line above; the caller learns that it happened and when to look.
+absl::Status ClientFacing(const absl::Status& status) {
+    if (status.code() != absl::StatusCode::kInternal &&
+        status.code() != absl::StatusCode::kUnknown) {
+        return status;
+    }
+    return absl::Status(status.code(),
+                        "internal error: the server logged its details with this request");
+}
+
 }  // namespace
 
 Dispatcher::Dispatcher(WorkerPool& pool, Metrics& metrics) : pool_(pool), metrics_(metrics) {}
@@ -89,7 +100,7 @@ void Dispatcher::Finish(const CallContext& context, const CallRecord& record,
               {"queue_ms", record.queue_ms},
               {"volume_m3", record.volume_m3.value_or(std::nan(""))},
               {"error", status.message()}});
-    done(status);
+    done(ClientFacing(status));
 }
 
 }  // namespace soilvol::server

@@ -192,10 +192,10 @@ absl::StatusOr<int> HttpGateway::Start() {
         });
         // httplib refuses a declared Content-Length past the limit before reading any of it.
         std::uint64_t declared = 0;
-        too_large = too_large || (!read && request.has_header("Content-Length") &&
-                                  absl::SimpleAtoi(request.get_header_value("Content-Length"),
-                                                   &declared) &&
-                                  declared > limit);
+        too_large =
+            too_large || (!read && request.has_header("Content-Length") &&
+                          absl::SimpleAtoi(request.get_header_value("Content-Length"), &declared) &&
+                          declared > limit);
         if (too_large) {
             response.set_header("Connection", "close");
             SendError(response,
@@ -324,8 +324,13 @@ void HttpGateway::Handle(const httplib::Request& request, const std::string& bod
         // One label for every path no route serves: metrics stay bounded whatever is asked.
         call.method = "unmatched";
         dispatcher_.Refuse(call, match.status());
+        // A wrong verb on a served path is HTTP's 405; anything else keeps its code's status.
         const bool not_allowed = absl::IsUnimplemented(match.status());
-        SendError(response, match.status(), not_allowed ? 405 : 404);
+        if (not_allowed) {
+            SendError(response, match.status(), 405);
+        } else {
+            SendError(response, match.status());
+        }
         return;
     }
     call.method = match->route->method;
@@ -333,8 +338,7 @@ void HttpGateway::Handle(const httplib::Request& request, const std::string& bod
 }
 
 void HttpGateway::ServeRpc(const RouteMatch& match, const httplib::Request& request,
-                           const std::string& body, httplib::Response& response,
-                           CallContext call) {
+                           const std::string& body, httplib::Response& response, CallContext call) {
     const Rpc& rpc = rpcs_.at(match.route->method);
     std::shared_ptr<google::protobuf::Message> message = rpc.new_request();
     std::shared_ptr<google::protobuf::Message> answer = rpc.new_response();

@@ -12,9 +12,32 @@
 
 namespace soilvol::server {
 
+namespace {
+
+// What a client may see of a path: its folder and name inside the data directory, a temporary
+// file by the id it was for (its name also holds the server's pid and a random tag).
+std::string DisplayPath(std::string_view path) {
+    const std::size_t name_at = path.rfind('/');
+    std::string_view name = name_at == std::string_view::npos ? path : path.substr(name_at + 1);
+    std::string_view folder;
+    if (name_at != std::string_view::npos && name_at > 0) {
+        const std::size_t folder_at = path.rfind('/', name_at - 1);
+        folder = path.substr(folder_at == std::string_view::npos ? 0 : folder_at + 1,
+                             name_at - (folder_at == std::string_view::npos ? 0 : folder_at + 1));
+    }
+    std::string shown(name);
+    if (name.size() > 4 && name.front() == '.' && name.substr(name.size() - 4) == ".tmp") {
+        const std::size_t id_end = name.find('.', 1);
+        shown = absl::StrCat("a temporary file for ", AbslView(name.substr(1, id_end - 1)));
+    }
+    return folder.empty() ? shown : absl::StrCat(AbslView(folder), "/", shown);
+}
+
+}  // namespace
+
 absl::Status ErrnoStatus(int error_number, std::string_view what, std::string_view path) {
-    std::string message = absl::StrCat(AbslView(what), " ", AbslView(path), ": ",
-                                       std::generic_category().message(error_number));
+    std::string message = absl::StrCat("data directory: ", AbslView(what), " ", DisplayPath(path),
+                                       ": ", std::generic_category().message(error_number));
     switch (error_number) {
         case ENOSPC:
         case EDQUOT:

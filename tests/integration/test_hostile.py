@@ -111,6 +111,11 @@ class Hostile(unittest.TestCase):
         self.assertNotIn("/no/such/path", text)
         self.assertLess(len(text), before + 4096)
 
+    def test_http_status_and_json_code_agree(self):
+        for path, status, code in (("/no/such/path", 404, 5), ("/v1/containers/%zz", 400, 3)):
+            got, err = self.server.rest("GET", path)
+            self.assertEqual((got, err["code"]), (status, code), (path, err))
+
     def test_huge_grpc_timeout_is_no_deadline(self):
         status, body = self.server.rest("GET", "/v1/containers",
                                         headers={"Grpc-Timeout": "99999999H"})
