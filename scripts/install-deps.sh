@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package soilvol's build and tests need. Idempotent and non-interactive:
 # does nothing when all packages are present. Uses sudo when not run as root.
+# `install-deps.sh fuzz` adds clang and libFuzzer for scripts/fuzz.sh (not in the images).
 set -euo pipefail
 
 packages=(
@@ -13,6 +14,9 @@ packages=(
     libgtest-dev libgmock-dev libbenchmark-dev
     clang-format shellcheck yamllint
 )
+if [ "${1:-}" = "fuzz" ]; then
+    packages+=(clang libfuzzer-14-dev libomp-14-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -40,7 +40,8 @@ absl::StatusOr<DecodedCloud> DecodeRaw(std::string_view bytes) {
     }
     const std::size_t count = bytes.size() / kRawPointBytes;
     if (count > detail::kMaxPoints) {
-        return absl::InvalidArgumentError(absl::StrCat("raw xyz: ", count, " points is more than the ",
+        return absl::InvalidArgumentError(absl::StrCat("raw xyz: ", count,
+                                                       " points is more than the ",
                                                        detail::kMaxPoints, " a scan may hold"));
     }
     constexpr bool kSwap = !detail::kHostIsLittleEndian;

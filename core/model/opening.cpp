@@ -36,9 +36,8 @@ absl::Status CheckCorners(const Corners& corners, const OpeningConfig& config) {
     }
     // Shoelace area of the corners projected on their best plane is at most that of the
     // triangle fan in 3D: the fan bounds it without a plane fit.
-    const Eigen::Vector3d fan =
-        0.5 * ((corners[1] - corners[0]).cross(corners[2] - corners[0]) +
-               (corners[2] - corners[0]).cross(corners[3] - corners[0]));
+    const Eigen::Vector3d fan = 0.5 * ((corners[1] - corners[0]).cross(corners[2] - corners[0]) +
+                                       (corners[2] - corners[0]).cross(corners[3] - corners[0]));
     if (fan.norm() > config.max_area_m2) {
         return absl::InvalidArgumentError(
             absl::StrFormat("opening.corners: the opening spans %.0f m^2; openings up to %.0f m^2 "

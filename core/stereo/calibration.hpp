@@ -1,8 +1,7 @@
 #pragma once
 
-#include <cstdint>
-
 #include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -25,14 +24,14 @@ struct ImagePair {
 };
 
 struct CalibrationConfig {
-    std::size_t min_pairs = 5;     ///< fewer usable pairs (or < 3) is FailedPrecondition
-    bool fix_k3 = true;            ///< estimate k1, k2, p1, p2 only (webcam-class lenses)
-    double max_rms_px = 2.0;       ///< a worse stereo fit is FailedPrecondition
+    std::size_t min_pairs = 5;  ///< fewer usable pairs (or < 3) is FailedPrecondition
+    bool fix_k3 = true;         ///< estimate k1, k2, p1, p2 only (webcam-class lenses)
+    double max_rms_px = 2.0;    ///< a worse stereo fit is FailedPrecondition
     /// Degenerate fits are refused with their figures, never stored: rectified corners of one
     /// pair must agree in row within this mean [px] ...
     double max_epipolar_px = 1.0;
     double min_baseline_m = 0.001;  ///< ... and the cameras must stand at least this far apart
-    int max_image_side_px = 8192;  ///< larger images are InvalidArgument; at most 8192
+    int max_image_side_px = 8192;   ///< larger images are InvalidArgument; at most 8192
     /// Work a call may ask for, checked from the image headers before any is decoded: more
     /// pairs, or more pixels over all of them (200 pairs of 1.2 MP), are InvalidArgument.
     std::size_t max_pairs = 200;

@@ -44,6 +44,13 @@ absl::Status CheckYamlBounds(std::string_view yaml) {
         int dashes = 0;
         for (std::size_t i = 0; i < line.size(); ++i) {
             const char c = line[i];
+            // The files this reads are written as printable ASCII; OpenCV's parser loops
+            // forever on some inputs with a NUL or bytes past ASCII (found by fuzzing).
+            const auto u = static_cast<unsigned char>(c);
+            if ((u < 0x20 && c != '\t') || u >= 0x7F) {
+                return Refuse(line_number, absl::StrCat("byte 0x", absl::Hex(u, absl::kZeroPad2),
+                                                        " is not printable ASCII"));
+            }
             colons += c == ':';
             dashes += c == '-' && (i + 1 == line.size() || IsBlank(line[i + 1]));
             openings += c == '[' || c == '{';

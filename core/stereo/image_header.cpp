@@ -82,6 +82,8 @@ std::optional<HeaderSize> BmpSize(std::string_view bytes) {
                                 : static_cast<std::int64_t>(v);
     };
     const std::int64_t signed_height = as_signed(height);
+    // A negative width is no bitmap (only heights carry the row order).
+    if (as_signed(width) < 0) return std::nullopt;
     return HeaderSize{as_signed(width), signed_height < 0 ? -signed_height : signed_height};
 }
 

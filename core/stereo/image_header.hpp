@@ -14,8 +14,8 @@ struct HeaderSize {
     std::int64_t height = 0;
 };
 
-/// The size declared by a PNG, JPEG, BMP, PNM (P1-P6) or TIFF header; nullopt for other
-/// formats or a header too short or malformed to tell.
+/// The size declared by a PNG, JPEG, BMP, PNM (P1-P6) or TIFF header, never negative; nullopt
+/// for other formats or a header too short or malformed to tell.
 std::optional<HeaderSize> PeekImageSize(std::string_view bytes);
 
 }  // namespace soilvol::stereo::detail

@@ -259,9 +259,9 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const 
             ? config.cell_m
             : AutomaticCellSize(CountInside(column.points, opening), opening, config);
     if (!(GridCells(opening, cell_m) <= config.max_cells)) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "grid_cell_m: ", cell_m, " m cells give ", GridCells(opening, cell_m),
-            " cells over the opening; at most ", config.max_cells, " are allowed"));
+        return absl::InvalidArgumentError(
+            absl::StrCat("grid_cell_m: ", cell_m, " m cells give ", GridCells(opening, cell_m),
+                         " cells over the opening; at most ", config.max_cells, " are allowed"));
     }
     VolumeResult result;
     result.grid = MakeGrid(opening, cell_m);

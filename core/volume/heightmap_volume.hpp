@@ -19,7 +19,7 @@ struct HeightmapConfig {
     double cell_m = 0.0;                   ///< grid cell side; 0 = automatic from point density
     double target_points_per_cell = 16.0;  ///< density target of the automatic cell size
     double min_cell_m = 0.02;
-    double max_cell_fraction = 0.25;     ///< automatic cells stay below this share of the opening
+    double max_cell_fraction = 0.25;  ///< automatic cells stay below this share of the opening
     /// Automatic cells grow until the opening's bounding box holds at most this many (memory:
     /// about 200 bytes a cell for an estimate); explicit cells beyond it are refused.
     double max_cells = 250000.0;

@@ -91,6 +91,20 @@ std::string Replaced(std::string yaml, const std::string& from, const std::strin
     return yaml;
 }
 
+// Found by fuzz_calibration_file: 40 bytes with a NUL and 0xFF bytes kept OpenCV 4.6's YAML
+// parser looping forever. Files are printable ASCII; anything else is refused unparsed.
+TEST(CalibrationFileHostileTest, BytesPastPrintableAsciiAreRefusedBeforeOpenCvParses) {
+    const std::string hang(
+        "%YAML:1.0\n---z\xac"
+        "ersion: 2\ns-2\n-e:\0\xff\xff\xff\xff\xff.\n",
+        40);
+    const auto parsed = ParseCalibration(hang);
+    ASSERT_FALSE(parsed.ok());
+    EXPECT_EQ(parsed.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(parsed.status().message().find("is not printable ASCII"), std::string::npos)
+        << parsed.status();
+}
+
 TEST(CalibrationFileTest, ParametersCalibrationRoundTripsExactly) {
     const StereoCalibration calibration = ParametersCalibration();
     const auto parsed = ParseCalibration(SerializeCalibration(calibration));

@@ -193,6 +193,16 @@ TEST(DecodeGreyTest, UncheckedFormatsAndPixelBudgetAreRefusedBeforeDecoding) {
     EXPECT_TRUE(IsInvalidWith(DecodeGrey(PngClaiming(4000, 3000), "left"), "left"));
 }
 
+// Found by fuzz_image_header: a BMP header with a negative width was reported as a negative
+// size, which passed the size checks and went to OpenCV. It is no bitmap: refused unread.
+TEST(DecodeGreyTest, BmpWithNegativeWidthIsRefusedUnread) {
+    std::string bmp = Encode(SmoothMat(8, 8, 1), ".bmp");
+    const std::int32_t width = -8;
+    for (int i = 0; i < 4; ++i)
+        bmp[18 + i] = static_cast<char>(static_cast<std::uint32_t>(width) >> (8 * i));
+    EXPECT_TRUE(IsInvalidWith(DecodeGrey(bmp, "left"), "left: not a decodable image"));
+}
+
 TEST(DecodeGreyTest, OversizeHeadersOfEachFormatAreRefused) {
     const std::string expected = "left: 9000x10 is larger than 8192 px";
     const cv::Mat small = SmoothMat(8, 8, 1);

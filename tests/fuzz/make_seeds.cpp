@@ -1,0 +1,131 @@
+// Writes the seed inputs that come from soilvol's own encoders into <dir>/<target>/: a stored
+// model, a stored calibration and PCD/PLY clouds in every encoding. scripts/fuzz.sh adds them
+// to the committed hand-made seeds in tests/fuzz/corpus/ before each run.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <vector>
+
+#include "core/io/cloud_codec.hpp"
+#include "core/model/model_codec.hpp"
+#include "core/stereo/calibration.hpp"
+#include "core/stereo/calibration_file.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using soilvol::Cloud;
+
+void Write(const fs::path& dir, const std::string& name, const std::string& bytes) {
+    fs::create_directories(dir);
+    std::ofstream(dir / name, std::ios::binary) << bytes;
+}
+
+Cloud Points(int n, float z) {
+    Cloud points;
+    for (int i = 0; i < n; ++i) {
+        points.emplace_back(0.1f * static_cast<float>(i % 5), 0.1f * static_cast<float>(i / 5),
+                            z + 0.01f * static_cast<float>(i % 3));
+    }
+    return points;
+}
+
+// A small model with every field set (not a fit: the decoder's input, not the estimator's).
+soilvol::model::ContainerModel SmallModel() {
+    soilvol::model::ContainerModel model;
+    model.opening.polygon =
+        soilvol::Polygon2d({{-0.5, -0.3}, {0.5, -0.3}, {0.5, 0.3}, {-0.5, 0.3}});
+    model.opening.area_m2 = 0.6;
+    model.inside = Points(10, -0.4f);
+    model.structure = Points(6, 0.1f);
+    model.alignment_points = Points(8, 0.05f);
+    model.alignment_normals = Cloud(8, Eigen::Vector3f::UnitZ());
+    soilvol::WeightedCloud cavity;
+    cavity.points = Points(10, -0.4f);
+    cavity.weights.assign(10, 1.0f);
+    cavity.sensor = Eigen::Vector3d(0.0, -1.0, 2.0);
+    model.cavity.push_back(cavity);
+    model.structure_radius_m = 0.05;
+    model.smoothing_radius_m = 0.08;
+    model.depth_m = 0.4;
+    model.struck_capacity_m3 = 0.24;
+    model.heaped_capacity_sae_m3 = 0.3;
+    model.heaped_capacity_iso_m3 = 0.27;
+    model.noise_sigma_m = 0.01;
+    model.observed_share = 0.9;
+    model.scan_points = 30;
+    model.outside_points = 8;
+    return model;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 2) {
+        std::fprintf(stderr, "usage: %s <corpus-dir>\n", argv[0]);
+        return 2;
+    }
+    const fs::path root(argv[1]);
+    using soilvol::io::PcdEncoding;
+    using soilvol::io::PlyEncoding;
+    const Cloud cloud = Points(12, 1.5f);
+    // The cloud target reads its first byte as the raw-xyz switch.
+    Write(root / "fuzz_cloud_decoder", "ply_binary",
+          std::string(1, '\0') + soilvol::io::EncodePly(cloud));
+    Write(root / "fuzz_cloud_decoder", "ply_ascii",
+          std::string(1, '\0') + soilvol::io::EncodePly(cloud, PlyEncoding::kAscii));
+    Write(root / "fuzz_cloud_decoder", "ply_big_endian",
+          std::string(1, '\0') + soilvol::io::EncodePly(cloud, PlyEncoding::kBinaryBigEndian));
+    Write(root / "fuzz_cloud_decoder", "pcd_binary",
+          std::string(1, '\0') + soilvol::io::EncodePcd(cloud));
+    Write(root / "fuzz_cloud_decoder", "pcd_ascii",
+          std::string(1, '\0') + soilvol::io::EncodePcd(cloud, PcdEncoding::kAscii));
+    Write(root / "fuzz_cloud_decoder", "pcd_compressed",
+          std::string(1, '\0') + soilvol::io::EncodePcd(cloud, PcdEncoding::kBinaryCompressed));
+    Write(root / "fuzz_cloud_decoder", "raw",
+          std::string(1, '\x01') + soilvol::io::EncodeRawXyzF32(cloud));
+    // The model target reads its first byte as a switch: even, a whole file; odd, a payload it
+    // frames (here: the payload of the same model).
+    const std::string model = soilvol::model::EncodeModel(SmallModel());
+    Write(root / "fuzz_model_codec", "file", std::string(1, '\0') + model);
+    Write(root / "fuzz_model_codec", "payload",
+          std::string(1, '\x01') + model.substr(24, model.size() - 24 - 8));
+    soilvol::StereoParameters rig;
+    rig.image_width = 640;
+    rig.image_height = 480;
+    rig.left = {500.0, 500.0, 320.0, 240.0, {0.01, -0.02, 0.0, 0.0, 0.0}};
+    rig.right = rig.left;
+    rig.t_right_left_m = Eigen::Vector3d(-0.1, 0.0, 0.0);
+    const auto calibration = soilvol::stereo::CalibrationFromParameters(rig);
+    if (!calibration.ok()) {
+        std::fprintf(stderr, "%s\n", std::string(calibration.status().message()).c_str());
+        return 1;
+    }
+    Write(root / "fuzz_calibration_file", "rig",
+          soilvol::stereo::SerializeCalibration(*calibration));
+    // Images in each format whose header is read, grey and colour, 8 and 16 bits.
+    cv::Mat grey(8, 8, CV_8UC1);
+    for (int i = 0; i < 64; ++i) grey.at<uchar>(i / 8, i % 8) = static_cast<uchar>(4 * i);
+    cv::Mat colour, deep;
+    cv::merge(std::vector<cv::Mat>{grey, grey, grey}, colour);
+    grey.convertTo(deep, CV_16UC1, 256.0);
+    const struct {
+        const char* name;
+        const cv::Mat& image;
+        std::vector<int> flags;
+    } images[] = {{".png", grey, {}},   {".png", deep, {}},
+                  {".jpg", colour, {}}, {".jpg", grey, {cv::IMWRITE_JPEG_PROGRESSIVE, 1}},
+                  {".bmp", colour, {}}, {".pgm", grey, {}},
+                  {".ppm", colour, {}}, {".tif", deep, {}}};
+    int index = 0;
+    for (const auto& image : images) {
+        std::vector<uchar> bytes;
+        if (!cv::imencode(image.name, image.image, bytes, image.flags)) continue;
+        Write(root / "fuzz_image_header", "image" + std::to_string(index++) + image.name,
+              std::string(bytes.begin(), bytes.end()));
+    }
+    return 0;
+}
