@@ -284,7 +284,12 @@ void HttpGateway::Handle(const httplib::Request& request, const std::string& bod
     // A browser sends a simple cross-origin request (text/plain POST) without asking first: one
     // from an origin not allowed is refused before it runs, and bodies must be JSON, which no
     // page can send cross-origin without the preflight above.
-    if (request.has_header("Origin") && !cors) {
+    // A page the server itself serves is same-origin: its Origin names this host.
+    const std::string origin = request.get_header_value("Origin");
+    const std::string host = request.get_header_value("Host");
+    const bool same_origin =
+        !host.empty() && (origin == "http://" + host || origin == "https://" + host);
+    if (!origin.empty() && !cors && !same_origin) {
         SendError(response,
                   absl::PermissionDeniedError(absl::StrCat(
                       "origin '", request.get_header_value("Origin"), "' is not allowed")),

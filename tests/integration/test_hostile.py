@@ -185,6 +185,10 @@ class HostileOwnServer(unittest.TestCase):
             self.assertEqual(server.rest("GET", "/v1/containers/evil")[0], 404)
             status, _ = server.rest("GET", "/v1/containers", headers={"Origin": "https://ok.example"})
             self.assertEqual(status, 200)
+            # A page the server serves itself is same-origin, whatever --cors-origin says.
+            own = f"http://127.0.0.1:{server.http_port}"
+            status, _ = server.rest("GET", "/v1/containers", headers={"Origin": own})
+            self.assertEqual(status, 200)
 
 
 if __name__ == "__main__":
