@@ -65,12 +65,14 @@ Features::Ptr Describe(const PointCloud::Ptr& cloud, const GlobalAlignConfig& co
 
 std::optional<Pose> GlobalAlign(const Cloud& source, const Eigen::Vector3d& source_sensor,
                                 const Cloud& scan, const GlobalAlignConfig& config,
-                                const std::optional<Pose>& reference) {
+                                const std::optional<Pose>& reference, const StopToken& stop) {
     const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();
     const PointCloud::Ptr src = WithNormals(source, source_sensor, config, threads);
+    if (stop.StopRequested()) return std::nullopt;
     const PointCloud::Ptr dst = WithNormals(scan, Eigen::Vector3d::Zero(), config, threads);
-    if (src->size() < 10 || dst->size() < 10) return std::nullopt;
+    if (src->size() < 10 || dst->size() < 10 || stop.StopRequested()) return std::nullopt;
     const Features::Ptr src_features = Describe(src, config, threads);
+    if (stop.StopRequested()) return std::nullopt;
     const Features::Ptr dst_features = Describe(dst, config, threads);
     pcl::SampleConsensusPrerejective<pcl::PointNormal, pcl::PointNormal, pcl::FPFHSignature33>
         ransac;
@@ -85,6 +87,7 @@ std::optional<Pose> GlobalAlign(const Cloud& source, const Eigen::Vector3d& sour
     ransac.setMaxCorrespondenceDistance(config.inlier_distance_m);
     ransac.setInlierFraction(static_cast<float>(config.min_inlier_fraction));
     for (int attempt = 0; attempt < std::max(config.attempts, 1); ++attempt) {
+        if (stop.StopRequested()) return std::nullopt;
         PointCloud aligned;
         ransac.align(aligned);
         if (!ransac.hasConverged()) continue;

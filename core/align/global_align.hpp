@@ -2,6 +2,7 @@
 
 #include <optional>
 
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::align {
@@ -28,9 +29,12 @@ struct GlobalAlignConfig {
 /// Container pose in the scan frame aligning `source` (container frame, seen from
 /// `source_sensor`, container frame) to `scan` (scan frame, sensor at the origin), or nullopt
 /// when no pose explains enough of the source (or, given `reference`, none within
-/// `max_turn_deg` of it).
+/// `max_turn_deg` of it). `stop` is checked between the steps (normals, descriptors, each
+/// search; PCL's own cannot be interrupted): a stopped search gives nullopt and its caller checks
+/// the token.
 std::optional<Pose> GlobalAlign(const Cloud& source, const Eigen::Vector3d& source_sensor,
                                 const Cloud& scan, const GlobalAlignConfig& config,
-                                const std::optional<Pose>& reference = std::nullopt);
+                                const std::optional<Pose>& reference = std::nullopt,
+                                const StopToken& stop = {});
 
 }  // namespace soilvol::align

@@ -33,7 +33,8 @@ struct Target {
 // The scan points near the model at pose `initial`, outside the contents' column, voxel-averaged
 // and smoothed among themselves: what the container holds never blends into its outside.
 Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial,
-                     const AlignConfig& config, const ContentColumn* column, double voxel_m) {
+                     const AlignConfig& config, const ContentColumn* column, double voxel_m,
+                     const StopToken& stop) {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const auto& p : source) centre += p.cast<double>();
     centre /= static_cast<double>(std::max<std::size_t>(source.size(), 1));
@@ -49,9 +50,11 @@ Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial
         if (column != nullptr && column->Holds((to_container * p.cast<double>()))) continue;
         cropped.push_back(p);
     }
+    if (stop.StopRequested()) return {};
     Cloud voxels = cloud::VoxelDownsample(cropped, voxel_m);
     if (config.smoothing_radius_m <= 0.0) return {std::move(voxels), {}};
-    cloud::LocalSurface surface = cloud::SmoothLocalSurface(voxels, config.smoothing_radius_m);
+    cloud::LocalSurface surface = cloud::SmoothLocalSurface(voxels, config.smoothing_radius_m,
+                                                            cloud::kMinSurfaceNeighbors, stop);
     return {std::move(surface.points), std::move(surface.normals)};
 }
 
@@ -146,7 +149,7 @@ void Summarize(const Cloud& source, const Cloud& normals, const Target& target,
 
 AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
                   const Pose& initial_T_scan_container, const AlignConfig& config,
-                  const ContentColumn* column) {
+                  const ContentColumn* column, const StopToken& stop) {
     AlignResult result;
     result.T_scan_container = initial_T_scan_container;
     if (source.empty()) return result;
@@ -168,14 +171,15 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
             band.margin_m = last ? config.fine_column_margin_m : config.coarse_column_margin_m;
         }
         target = PrepareTarget(source, scan, T, config, column != nullptr ? &band : nullptr,
-                               config.target_voxel_m);
+                               config.target_voxel_m, stop);
         result.target_points = target.points.size();
-        if (target.points.empty()) return result;
+        if (target.points.empty() || stop.StopRequested()) return result;
         const cloud::KdTree tree(target.points);
         const bool fine = s + 1 == stages.size();
         bool stage_converged = false;
         std::vector<Pose> history;
         while (result.iterations < config.max_iterations && !stage_converged) {
+            if (stop.StopRequested()) return result;
             const System sys = Linearize(source, normals, T, target, tree, stages[s],
                                          config.ransac_outlier_rejection_m, min_cos, threads);
             if (sys.count < 6) break;

@@ -4,6 +4,7 @@
 
 #include "absl/status/status.h"
 #include "core/common/polygon.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::align {
@@ -87,10 +88,11 @@ struct AlignResult {
 };
 
 /// Aligns `source` (container frame, with unit `normals`) to `scan` (scan frame), starting at
-/// `initial_T_scan_container`; scan returns in `column` (when given) are not container.
+/// `initial_T_scan_container`; scan returns in `column` (when given) are not container. On a
+/// `stop` it returns the pose reached so far, not converged and without the fit's figures.
 AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
                   const Pose& initial_T_scan_container, const AlignConfig& config,
-                  const ContentColumn* column = nullptr);
+                  const ContentColumn* column = nullptr, const StopToken& stop = {});
 
 /// FailedPrecondition naming the figures when `result` does not pass `gate`.
 absl::Status CheckAlignment(const AlignResult& result, const AlignGate& gate);

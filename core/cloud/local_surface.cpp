@@ -8,7 +8,8 @@
 
 namespace soilvol::cloud {
 
-LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_neighbors) {
+LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_neighbors,
+                                const StopToken& stop) {
     // Voxels of the radius: every neighbour of a point lies in the 3^3 block around its voxel,
     // gathered once for all the voxel's points.
     const VoxelGrid grid(points, radius_m);
@@ -21,6 +22,7 @@ LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_ne
         std::vector<uint32_t> candidates, found;
 #pragma omp for schedule(dynamic, 16)
         for (long v = 0; v < num_voxels; ++v) {
+            if (stop.StopRequested()) continue;
             grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), 1, candidates);
             const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
             for (std::size_t o = begin; o < end; ++o) {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::cloud {
@@ -14,7 +15,12 @@ struct LocalSurface {
     Cloud sources;  ///< the input point each mean belongs to
 };
 
-/// Points with fewer than `min_neighbors` within the radius are dropped.
-LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_neighbors = 5);
+inline constexpr int kMinSurfaceNeighbors = 5;
+
+/// Points with fewer than `min_neighbors` within the radius are dropped. On a `stop` the result
+/// is partial; the caller checks the token.
+LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m,
+                                int min_neighbors = kMinSurfaceNeighbors,
+                                const StopToken& stop = {});
 
 }  // namespace soilvol::cloud

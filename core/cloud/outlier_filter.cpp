@@ -67,7 +67,8 @@ float MeanFromCandidates(const Cloud& points, uint32_t i, const std::vector<uint
 
 }  // namespace
 
-std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_threads) {
+std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_threads,
+                                         const StopToken& stop) {
     std::vector<float> mean(points.size(), -1.0f);
     if (k <= 0 || points.size() <= static_cast<std::size_t>(k)) return mean;
     const double h = NeighborVoxelSize(points, k);
@@ -83,6 +84,7 @@ std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_thr
             std::vector<float> scratch;
 #pragma omp for schedule(dynamic, 32)
             for (long v = 0; v < num_voxels; ++v) {
+                if (stop.StopRequested()) continue;
                 const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
                 bool needed = false;
                 for (std::size_t o = begin; o < end && !needed; ++o)
@@ -102,7 +104,8 @@ std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_thr
 }
 
 OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
-                                              const OutlierFilterConfig& config) {
+                                              const OutlierFilterConfig& config,
+                                              const StopToken& stop) {
     OutlierFilterResult result;
     if (config.mean_k <= 0 || points.size() <= static_cast<std::size_t>(config.mean_k)) {
         result.kept = points;
@@ -131,8 +134,10 @@ OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
         result.kept = points;
         return result;
     }
+    if (stop.StopRequested()) return result;
     const std::vector<float> mean =
-        MeanNeighborDistances(centroids, config.mean_k, config.num_threads);
+        MeanNeighborDistances(centroids, config.mean_k, config.num_threads, stop);
+    if (stop.StopRequested()) return result;
     const double n = static_cast<double>(mean.size());
     const double mu = std::accumulate(mean.begin(), mean.end(), 0.0) / n;
     double sq = 0.0;

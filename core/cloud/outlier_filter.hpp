@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::cloud {
@@ -31,10 +32,14 @@ struct OutlierFilterResult {
 /// grid of size h sized from the cloud's density. Exact for every point whose k nearest lie
 /// within 2h (all but isolated returns); for the others a lower bound that counts each missing
 /// neighbour at 2h, which is already far beyond any removal threshold.
-std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_threads = 0);
+/// On a `stop` the distances are left unfinished; the caller checks the token.
+std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_threads = 0,
+                                         const StopToken& stop = {});
 
-/// Removes statistical outliers. Clouds with no more than `mean_k` points are returned as-is.
+/// Removes statistical outliers. Clouds with no more than `mean_k` points are returned as-is. On
+/// a `stop` the result is meaningless; the caller checks the token.
 OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
-                                              const OutlierFilterConfig& config);
+                                              const OutlierFilterConfig& config,
+                                              const StopToken& stop = {});
 
 }  // namespace soilvol::cloud

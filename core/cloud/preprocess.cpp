@@ -21,7 +21,8 @@ Cloud CropRange(const Cloud& points, double min_range_m, double max_range_m) {
 
 }  // namespace
 
-PreprocessResult Preprocess(const Cloud& points, const PreprocessConfig& config) {
+PreprocessResult Preprocess(const Cloud& points, const PreprocessConfig& config,
+                            const StopToken& stop) {
     PreprocessResult result;
     Timer timer;
     result.input_points = points.size();
@@ -30,12 +31,13 @@ PreprocessResult Preprocess(const Cloud& points, const PreprocessConfig& config)
     result.after_range = result.points.size();
     result.range_ms = timer.Lap();
     // Sec. 3.1: statistical outlier removal.
+    if (stop.StopRequested()) return result;
     if (config.remove_outliers) {
-        result.points = RemoveStatisticalOutliers(result.points, config.outliers).kept;
+        result.points = RemoveStatisticalOutliers(result.points, config.outliers, stop).kept;
     }
     result.after_outliers = result.points.size();
     result.outliers_ms = timer.Lap();
-    if (config.voxel_size_m > 0.0)
+    if (config.voxel_size_m > 0.0 && !stop.StopRequested())
         result.points = VoxelDownsample(result.points, config.voxel_size_m);
     result.voxel_ms = timer.Lap();
     return result;

@@ -3,6 +3,7 @@
 #include <cstddef>
 
 #include "core/cloud/outlier_filter.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::cloud {
@@ -28,7 +29,9 @@ struct PreprocessResult {
     double voxel_ms = 0.0;
 };
 
-/// Runs the configured steps in order on a scan-frame cloud (sensor at the origin).
-PreprocessResult Preprocess(const Cloud& points, const PreprocessConfig& config);
+/// Runs the configured steps in order on a scan-frame cloud (sensor at the origin). On a `stop`
+/// it returns early with a partial result; the caller checks the token.
+PreprocessResult Preprocess(const Cloud& points, const PreprocessConfig& config,
+                            const StopToken& stop = {});
 
 }  // namespace soilvol::cloud

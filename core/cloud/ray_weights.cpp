@@ -17,7 +17,8 @@ constexpr double kMaxWeight = 4.0;
 }  // namespace
 
 std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor_origin,
-                              double noise_sigma_m, const RayWeightConfig& config) {
+                              double noise_sigma_m, const RayWeightConfig& config,
+                              const StopToken& stop) {
     std::vector<float> weights(points.size(), 0.0f);
     if (points.empty()) return weights;
     // Normals of the local surface, from neighbourhoods wide against the noise.
@@ -35,7 +36,8 @@ std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor
         }
         centroids[v] = (sum / static_cast<double>(end - begin)).cast<float>();
     }
-    const LocalSurface surface = SmoothLocalSurface(centroids, radius);
+    const LocalSurface surface = SmoothLocalSurface(centroids, radius, kMinSurfaceNeighbors, stop);
+    if (stop.StopRequested()) return weights;
     // SmoothLocalSurface keeps the centroids with neighbours, in order: map them back.
     std::vector<int64_t> normal_of(centroids.size(), -1);
     std::size_t missing = 0;

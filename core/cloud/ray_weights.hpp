@@ -2,6 +2,7 @@
 
 #include <vector>
 
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::cloud {
@@ -18,8 +19,10 @@ struct RayWeightConfig {
 };
 
 /// Weight of every point of `points` (container frame, z up) seen from `sensor_origin` (same
-/// frame) with range noise `noise_sigma_m`. Points without a normal (isolated) get 0.
+/// frame) with range noise `noise_sigma_m`. Points without a normal (isolated) get 0. On a
+/// `stop` the weights are left unfinished; the caller checks the token.
 std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor_origin,
-                              double noise_sigma_m, const RayWeightConfig& config);
+                              double noise_sigma_m, const RayWeightConfig& config,
+                              const StopToken& stop = {});
 
 }  // namespace soilvol::cloud

@@ -36,9 +36,10 @@ void SplitInsideOutside(const Cloud& points, const Opening& opening, const Model
 // the empty surface; a wall on the column's boundary lies half outside and so marks the returns
 // that noise spread into the column.
 Cloud StructurePoints(const Cloud& points, const Opening& opening, const ModelConfig& config,
-                      double radius_m, double depth_m) {
-    const cloud::LocalSurface local = cloud::SmoothLocalSurface(
-        cloud::VoxelDownsample(points, config.smoothing_voxel_m), radius_m);
+                      double radius_m, double depth_m, const StopToken& stop) {
+    const cloud::LocalSurface local =
+        cloud::SmoothLocalSurface(cloud::VoxelDownsample(points, config.smoothing_voxel_m),
+                                  radius_m, cloud::kMinSurfaceNeighbors, stop);
     const double top = config.heightmap.max_heap_slope * 0.5 *
                        (opening.polygon.Max() - opening.polygon.Min()).minCoeff();
     // Each voxel is classified by its smoothed position (noise averaged out) and kept at its
@@ -74,7 +75,8 @@ double ModelCell(const ContainerModel& model, const ModelConfig& config) {
 
 // The noise of the empty scan (robust residuals of a first surface fit over the opening), and
 // the radii it sets: a mean over 2 sigmas keeps most of a point's noise, one over 3 a third.
-absl::Status MeasureNoise(const Cloud& points, const ModelConfig& config, ContainerModel& model) {
+absl::Status MeasureNoise(const Cloud& points, const ModelConfig& config, ContainerModel& model,
+                          const StopToken& stop) {
     Cloud inside, outside;
     SplitInsideOutside(points, model.opening, config, inside, outside);
     model.outside_points = outside.size();
@@ -90,7 +92,7 @@ absl::Status MeasureNoise(const Cloud& points, const ModelConfig& config, Contai
     SOILVOL_ASSIGN_OR_RETURN(
         const volume::SurfaceMap rough,
         volume::EstimateSurface(volume::MakeGrid(model.opening.polygon, cell_m), inside, {},
-                                config.heightmap.surface));
+                                config.heightmap.surface, stop));
     model.noise_sigma_m = rough.noise_sigma_m;
     model.smoothing_radius_m =
         std::max(config.smoothing_radius_m, config.smoothing_sigmas * rough.noise_sigma_m);
@@ -118,12 +120,12 @@ align::ContentColumn ContentColumnOf(const ContainerModel& model) {
 }
 
 align::AlignResult AlignModel(const ContainerModel& model, const Cloud& scan, const Pose& initial,
-                              const align::AlignConfig& config) {
+                              const align::AlignConfig& config, const StopToken& stop) {
     align::AlignConfig align = config;
     align.smoothing_radius_m = std::max(align.smoothing_radius_m, model.smoothing_radius_m);
     const align::ContentColumn column = ContentColumnOf(model);
     return align::Align(model.alignment_points, model.alignment_normals, scan, initial, align,
-                        &column);
+                        &column, stop);
 }
 
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points) {
@@ -151,14 +153,18 @@ namespace {
 // The model's alignment set (Sec. 3.3): the scan smoothed as the pipeline smooths each new scan
 // before ICP (AlignConfig), so that a mean near the rim sees the same surfaces in both; then
 // selected and thinned.
-void MakeAlignmentSet(const Cloud& points, const ModelConfig& config, ContainerModel& model) {
+absl::Status MakeAlignmentSet(const Cloud& points, const ModelConfig& config, ContainerModel& model,
+                              const StopToken& stop) {
     const align::ContentColumn column = ContentColumnOf(model);
     Cloud outside;
     for (const auto& p : points) {
         if (!column.Holds(p.cast<double>())) outside.push_back(p);
     }
-    const cloud::LocalSurface surface = cloud::SmoothLocalSurface(
-        cloud::VoxelDownsample(outside, config.smoothing_voxel_m), model.smoothing_radius_m);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("alignment set"));
+    const cloud::LocalSurface surface =
+        cloud::SmoothLocalSurface(cloud::VoxelDownsample(outside, config.smoothing_voxel_m),
+                                  model.smoothing_radius_m, cloud::kMinSurfaceNeighbors, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("alignment set"));
     const Cloud& selected = surface.points;
     const Cloud& selected_normals = surface.normals;
     const cloud::VoxelGrid thin(selected, config.alignment_voxel_m);
@@ -167,17 +173,20 @@ void MakeAlignmentSet(const Cloud& points, const ModelConfig& config, ContainerM
         model.alignment_points.push_back(selected[i]);
         model.alignment_normals.push_back(selected_normals[i]);
     }
+    return absl::OkStatus();
 }
 
 // One empty scan's share of the model: its inside, its structure, its cavity with ray weights.
 absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
-                       const ModelConfig& config, ContainerModel& model) {
+                       const ModelConfig& config, ContainerModel& model, const StopToken& stop) {
     Cloud inside, outside;
     SplitInsideOutside(points, model.opening, config, inside, outside);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("structure"));
     const Cloud structure =
         StructurePoints(points, model.opening, config,
                         std::max(model.structure_radius_m, config.smoothing_radius_m),
-                        -LowestZ(inside.empty() ? points : inside));
+                        -LowestZ(inside.empty() ? points : inside), stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("structure"));
     model.structure.insert(model.structure.end(), structure.begin(), structure.end());
     WeightedCloud cavity = RemoveStructure(model, WeightedCloud{inside, {}, sensor});
     if (cavity.points.size() < config.min_inside_points) {
@@ -186,8 +195,9 @@ absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
             " lie inside the container clear of its rim and walls (need ", config.min_inside_points,
             "): the inside must be visible"));
     }
-    cavity.weights =
-        cloud::RayWeights(cavity.points, sensor, model.noise_sigma_m, config.heightmap.ray_weights);
+    cavity.weights = cloud::RayWeights(cavity.points, sensor, model.noise_sigma_m,
+                                       config.heightmap.ray_weights, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
     model.inside.insert(model.inside.end(), inside.begin(), inside.end());
     model.cavity.push_back(std::move(cavity));
     return absl::OkStatus();
@@ -195,11 +205,14 @@ absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
 
 // Sec. 3.2: the empty surface from every empty scan; the struck capacity is the volume between
 // it and the opening.
-absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model) {
+absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model,
+                           const StopToken& stop) {
     model.cache = std::make_shared<ModelCache>();
+    SOILVOL_RETURN_IF_ERROR(stop.Check("empty surface"));
     const volume::Grid grid = volume::MakeGrid(model.opening.polygon, ModelCell(model, config));
-    SOILVOL_ASSIGN_OR_RETURN(const volume::EmptySurface empty,
-                             volume::EstimateEmptySurface(grid, model.cavity, config.heightmap));
+    SOILVOL_ASSIGN_OR_RETURN(
+        const volume::EmptySurface empty,
+        volume::EstimateEmptySurface(grid, model.cavity, config.heightmap, stop));
     model.observed_share = empty.area_m2 > 0.0 ? empty.observed_area_m2 / empty.area_m2 : 0.0;
     model.struck_capacity_m3 = 0.0;
     double lowest = 0.0;
@@ -219,15 +232,18 @@ absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model) {
 }  // namespace
 
 absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
-                                                   const ModelConfig& config) {
+                                                   const ModelConfig& config,
+                                                   const StopToken& stop) {
     ContainerModel model;
-    const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess);
+    const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing of the empty scan"));
     model.scan_points = pre.points.size();
     SOILVOL_ASSIGN_OR_RETURN(model.opening, MakeOpening(corners, pre.points, config.opening));
     model.column_top_m = config.inside_above_m;
     const Cloud points = ToContainerFrame(pre.points, model.opening.T_scan_container);
-    SOILVOL_RETURN_IF_ERROR(MeasureNoise(points, config, model));
-    MakeAlignmentSet(points, config, model);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("noise of the empty scan"));
+    SOILVOL_RETURN_IF_ERROR(MeasureNoise(points, config, model, stop));
+    SOILVOL_RETURN_IF_ERROR(MakeAlignmentSet(points, config, model, stop));
     if (model.alignment_points.size() < config.min_alignment_points) {
         return absl::FailedPreconditionError(absl::StrCat(
             "only ", model.alignment_points.size(), " alignment points outside the opening (need ",
@@ -235,18 +251,19 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
     }
     const Eigen::Vector3d sensor =
         SensorInContainer(model.opening.T_scan_container, model.opening.polygon);
-    SOILVOL_RETURN_IF_ERROR(AddCavity(points, sensor, config, model));
-    SOILVOL_RETURN_IF_ERROR(FinishSurface(config, model));
+    SOILVOL_RETURN_IF_ERROR(AddCavity(points, sensor, config, model, stop));
+    SOILVOL_RETURN_IF_ERROR(FinishSurface(config, model, stop));
     return model;
 }
 
 absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
-                          const ModelConfig& config, ContainerModel& model) {
-    const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess);
+                          const ModelConfig& config, ContainerModel& model, const StopToken& stop) {
+    const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing of the empty scan"));
     const Cloud points = ToContainerFrame(pre.points, T_scan_container);
     SOILVOL_RETURN_IF_ERROR(AddCavity(
-        points, SensorInContainer(T_scan_container, model.opening.polygon), config, model));
-    return FinishSurface(config, model);
+        points, SensorInContainer(T_scan_container, model.opening.polygon), config, model, stop));
+    return FinishSurface(config, model, stop);
 }
 
 }  // namespace soilvol::model

@@ -6,6 +6,7 @@
 #include "absl/status/statusor.h"
 #include "core/align/icp.hpp"
 #include "core/cloud/preprocess.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 #include "core/model/opening.hpp"
 #include "core/volume/heightmap_volume.hpp"
@@ -66,16 +67,20 @@ struct ContainerModel {
 
 /// Builds the model from an empty scan (scan frame) and its 4 opening corners (scan frame,
 /// ordered around the opening). InvalidArgument for bad corners; FailedPrecondition when too
-/// few points fall inside or outside the opening.
+/// few points fall inside or outside the opening; DeadlineExceeded or Cancelled, naming the
+/// stage, once `stop` asks for it.
 absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
-                                                   const ModelConfig& config);
+                                                   const ModelConfig& config,
+                                                   const StopToken& stop = {});
 
 /// Adds one more scan of the empty container (scan frame) in which the container stands at
 /// `T_scan_container` (found by aligning the model to it): its returns fill what earlier scans
 /// did not see, and the empty surface and capacities are computed anew. FailedPrecondition when
-/// too few of its points lie inside; the model is then left as it was.
+/// too few of its points lie inside; the model is then left as it was. DeadlineExceeded or
+/// Cancelled once `stop` asks for it; the model may then be part-updated: discard it.
 absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
-                          const ModelConfig& config, ContainerModel& model);
+                          const ModelConfig& config, ContainerModel& model,
+                          const StopToken& stop = {});
 
 /// Where the rays of a scan come from, in the container frame: the scan frame's origin mapped by
 /// `T_scan_container`, when it lies above the opening plane (by a tenth of the opening's
@@ -87,9 +92,10 @@ Eigen::Vector3d SensorInContainer(const Pose& T_scan_container, const Polygon2d&
 align::ContentColumn ContentColumnOf(const ContainerModel& model);
 
 /// Aligns the model's outside to `scan` (scan frame, preprocessed) from `initial`, smoothing the
-/// scan at least as widely as the model's alignment set was and leaving its contents out.
+/// scan at least as widely as the model's alignment set was and leaving its contents out. On a
+/// `stop`, the pose reached so far, not converged (align::Align).
 align::AlignResult AlignModel(const ContainerModel& model, const Cloud& scan, const Pose& initial,
-                              const align::AlignConfig& config);
+                              const align::AlignConfig& config, const StopToken& stop = {});
 
 /// The points of `points` (container frame) farther than the model's structure radius from its
 /// structure, with their weights.

@@ -77,7 +77,8 @@ double ModelCache::EmptyMinZ(const ContainerModel& model) {
 }
 
 absl::StatusOr<std::shared_ptr<const volume::EmptySurface>> ModelCache::EmptySurface(
-    const ContainerModel& model, const volume::Grid& grid, const volume::HeightmapConfig& config) {
+    const ContainerModel& model, const volume::Grid& grid, const volume::HeightmapConfig& config,
+    const StopToken& stop) {
     {
         const std::lock_guard<std::mutex> lock(mu_);
         for (auto it = surfaces_.begin(); it != surfaces_.end(); ++it) {
@@ -90,7 +91,7 @@ absl::StatusOr<std::shared_ptr<const volume::EmptySurface>> ModelCache::EmptySur
     // Computed outside the lock: calls on other grids do not wait; two first calls on one grid
     // both compute it, and the second result is dropped.
     SOILVOL_ASSIGN_OR_RETURN(volume::EmptySurface computed,
-                             volume::EstimateEmptySurface(grid, model.cavity, config));
+                             volume::EstimateEmptySurface(grid, model.cavity, config, stop));
     auto surface = std::make_shared<const volume::EmptySurface>(std::move(computed));
     const std::lock_guard<std::mutex> lock(mu_);
     for (const SurfaceEntry& e : surfaces_) {

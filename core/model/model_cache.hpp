@@ -50,9 +50,10 @@ class ModelCache {
 
     const StructureIndex& Structure(const ContainerModel& model);
     double EmptyMinZ(const ContainerModel& model);
+    /// A surface cut short by `stop` is not kept: the call returns the stop's status.
     absl::StatusOr<std::shared_ptr<const volume::EmptySurface>> EmptySurface(
         const ContainerModel& model, const volume::Grid& grid,
-        const volume::HeightmapConfig& config);
+        const volume::HeightmapConfig& config, const StopToken& stop = {});
 
   private:
     struct SurfaceEntry {

@@ -16,29 +16,34 @@ namespace {
 
 absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& model,
                                                const Cloud& aligned, const Pose& T_scan_container,
-                                               const EstimateConfig& config) {
+                                               const EstimateConfig& config,
+                                               const StopToken& stop) {
     const Polygon2d& opening = model.opening.polygon;
     if (config.method == volume::Method::kPaper) {
         const WeightedCloud column = volume::SelectColumn(WeightedCloud{aligned, {}}, opening,
                                                           -model.depth_m, config.heightmap);
-        return volume::PaperVolume(model.inside, column.points, opening, config.paper);
+        return volume::PaperVolume(model.inside, column.points, opening, config.paper, stop);
     }
     // Returns of the container's own rim and outside are not contents; every other return
     // weighs by what it tells of the height under it, seen along its ray.
-    WeightedCloud column =
-        model::RemoveStructure(model, volume::SelectColumn(WeightedCloud{aligned, {}}, opening,
-                                                           -model.depth_m, config.heightmap));
+    const WeightedCloud selected =
+        volume::SelectColumn(WeightedCloud{aligned, {}}, opening, -model.depth_m, config.heightmap);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
+    WeightedCloud column = model::RemoveStructure(model, selected);
     const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
-    column.weights =
-        cloud::RayWeights(column.points, sensor, model.noise_sigma_m, config.heightmap.ray_weights);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
+    column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
+                                       config.heightmap.ray_weights, stop);
     column.sensor = sensor;
+    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
     if (!model.cache)
-        return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap);
+        return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap, stop);
     model::ModelCache& cache = *model.cache;
     const volume::EmptySide empty{cache.EmptyMinZ(model), [&](const volume::Grid& grid) {
-                                      return cache.EmptySurface(model, grid, config.heightmap);
+                                      return cache.EmptySurface(model, grid, config.heightmap,
+                                                                stop);
                                   }};
-    return volume::HeightmapVolume(empty, column, opening, config.heightmap);
+    return volume::HeightmapVolume(empty, column, opening, config.heightmap, stop);
 }
 
 // The pose is wrong when the scan lies below the empty container over much of the opening.
@@ -63,13 +68,16 @@ double TurnDeg(const Pose& a, const Pose& b) {
 absl::StatusOr<align::AlignResult> SearchWider(const model::ContainerModel& model,
                                                const Cloud& scan, const Pose& initial,
                                                align::AlignResult local,
-                                               const EstimateConfig& config) {
+                                               const EstimateConfig& config,
+                                               const StopToken& stop) {
     const Eigen::Vector3d sensor =
         model::SensorInContainer(model.opening.T_scan_container, model.opening.polygon);
     const std::optional<Pose> coarse =
-        align::GlobalAlign(model.alignment_points, sensor, scan, config.global, initial);
+        align::GlobalAlign(model.alignment_points, sensor, scan, config.global, initial, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("global alignment"));
     if (!coarse) return local;
-    align::AlignResult global = model::AlignModel(model, scan, *coarse, config.align);
+    align::AlignResult global = model::AlignModel(model, scan, *coarse, config.align, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("alignment from the global pose"));
     if (!align::CheckAlignment(global, config.gate).ok()) return local;
     const bool local_ok = align::CheckAlignment(local, config.gate).ok();
     if (!local_ok || global.fitness > local.fitness + config.global_fitness_margin) return global;
@@ -146,13 +154,14 @@ absl::Status CheckUncertainty(const VolumeEstimate& estimate, const model::Conta
 }  // namespace
 
 absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
-                                              const EstimateConfig& config) {
+                                              const EstimateConfig& config, const StopToken& stop) {
     if (scan.empty()) return absl::InvalidArgumentError("scan has no points");
     VolumeEstimate estimate;
     Timer total;
     Timer timer;
     // Sec. 3.1: background and outlier removal.
-    const cloud::PreprocessResult pre = cloud::Preprocess(scan, config.preprocess);
+    const cloud::PreprocessResult pre = cloud::Preprocess(scan, config.preprocess, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing"));
     estimate.input_points = scan.size();
     estimate.preprocessed_points = pre.points.size();
     estimate.timings.range_ms = pre.range_ms;
@@ -163,23 +172,26 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     timer.Lap();
     // Sec. 3.3: align the model's outside to the scan.
     const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
-    estimate.alignment = model::AlignModel(model, pre.points, initial, config.align);
+    estimate.alignment = model::AlignModel(model, pre.points, initial, config.align, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("alignment"));
     if (!config.initial_T_scan_container && config.method == volume::Method::kHeightmap &&
         config.global_search_below_fitness >= 0.0 &&
         (estimate.alignment.fitness < config.global_search_below_fitness ||
          !align::CheckAlignment(estimate.alignment, config.gate).ok())) {
         SOILVOL_ASSIGN_OR_RETURN(
             estimate.alignment,
-            SearchWider(model, pre.points, initial, std::move(estimate.alignment), config));
+            SearchWider(model, pre.points, initial, std::move(estimate.alignment), config, stop));
     }
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
     SOILVOL_ASSIGN_OR_RETURN(estimate.seen_through,
                              CheckFreeSpace(model, pre.points, estimate.alignment, config));
     estimate.timings.align_ms = timer.Lap();  // the gate belongs to the alignment
     // Sec. 3.4: grid and integrate in the container frame.
+    SOILVOL_RETURN_IF_ERROR(stop.Check("volume integration"));
     const Cloud aligned = model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container);
     SOILVOL_ASSIGN_OR_RETURN(
-        estimate.volume, Integrate(model, aligned, estimate.alignment.T_scan_container, config));
+        estimate.volume,
+        Integrate(model, aligned, estimate.alignment.T_scan_container, config, stop));
     estimate.timings.volume_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(CheckContents(estimate.volume, config));
     estimate.volume_m3 = estimate.volume.volume_m3;

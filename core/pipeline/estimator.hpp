@@ -8,6 +8,7 @@
 #include "core/align/icp.hpp"
 #include "core/align/seen_through.hpp"
 #include "core/cloud/preprocess.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/model/container_model.hpp"
 #include "core/volume/heightmap_volume.hpp"
 #include "core/volume/paper_volume.hpp"
@@ -76,8 +77,10 @@ struct VolumeEstimate {
 
 /// Sec. 3.1-3.4 in order: preprocess the scan, align the model's outside to it, refuse a bad
 /// alignment (FailedPrecondition with the figures), integrate the soil with the chosen method.
-/// InvalidArgument for an empty scan.
+/// InvalidArgument for an empty scan; DeadlineExceeded or Cancelled, naming the stage, once
+/// `stop` asks for it.
 absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
-                                              const EstimateConfig& config);
+                                              const EstimateConfig& config,
+                                              const StopToken& stop = {});
 
 }  // namespace soilvol::pipeline

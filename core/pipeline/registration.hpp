@@ -5,6 +5,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/align/icp.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/model/container_model.hpp"
 
 namespace soilvol::pipeline {
@@ -34,9 +35,11 @@ struct Registration {
 /// corners), then each further scan aligned to the model and fused, so that what one view hid
 /// another fills (ContainerModel::observed_share says how much of the opening they saw).
 /// Errors of BuildContainerModel; FailedPrecondition naming the scan whose alignment fails the
-/// gate; InvalidArgument for no scan, more than max_scans, or bad corners of a later scan.
+/// gate; InvalidArgument for no scan, more than max_scans, or bad corners of a later scan;
+/// DeadlineExceeded or Cancelled, naming the stage and scan, once `stop` asks for it.
 absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
                                                const std::vector<EmptyScan>& scans,
-                                               const RegistrationConfig& config);
+                                               const RegistrationConfig& config,
+                                               const StopToken& stop = {});
 
 }  // namespace soilvol::pipeline

@@ -30,9 +30,11 @@ absl::StatusOr<StereoModel> BuildStereoContainerModel(const stereo::StereoRecons
                                                       const StereoPair& pair,
                                                       const OpeningMarks& opening,
                                                       const model::ModelConfig& config,
-                                                      const stereo::PixelCornerConfig& lift) {
+                                                      const stereo::PixelCornerConfig& lift,
+                                                      const StopToken& stop) {
     StereoModel result;
-    SOILVOL_ASSIGN_OR_RETURN(stereo::StereoCloud cloud, stereo.Reconstruct(pair.left, pair.right));
+    SOILVOL_ASSIGN_OR_RETURN(stereo::StereoCloud cloud,
+                             stereo.Reconstruct(pair.left, pair.right, {}, stop));
     result.timings = cloud.timings;
     result.stereo_points = cloud.points.size();
     Corners corners;
@@ -44,14 +46,15 @@ absl::StatusOr<StereoModel> BuildStereoContainerModel(const stereo::StereoRecons
         corners = std::get<Corners>(opening);
     }
     SOILVOL_ASSIGN_OR_RETURN(result.model,
-                             model::BuildContainerModel(cloud.points, corners, config));
+                             model::BuildContainerModel(cloud.points, corners, config, stop));
     return result;
 }
 
 absl::StatusOr<StereoEstimate> EstimateVolumeStereo(const model::ContainerModel& model,
                                                     const stereo::StereoReconstructor& stereo,
                                                     const StereoPair& pair,
-                                                    const StereoEstimateConfig& config) {
+                                                    const StereoEstimateConfig& config,
+                                                    const StopToken& stop) {
     Timer total;
     StereoEstimate result;
     if (config.match_model_region) {
@@ -60,10 +63,11 @@ absl::StatusOr<StereoEstimate> EstimateVolumeStereo(const model::ContainerModel&
         result.region = ModelRegion(model, stereo, expected, config);
     }
     SOILVOL_ASSIGN_OR_RETURN(stereo::StereoCloud cloud,
-                             stereo.Reconstruct(pair.left, pair.right, result.region));
+                             stereo.Reconstruct(pair.left, pair.right, result.region, stop));
     result.stereo = cloud.timings;
     result.stereo_points = cloud.points.size();
-    SOILVOL_ASSIGN_OR_RETURN(result.estimate, EstimateVolume(model, cloud.points, config.estimate));
+    SOILVOL_ASSIGN_OR_RETURN(result.estimate,
+                             EstimateVolume(model, cloud.points, config.estimate, stop));
     result.total_ms = total.Lap();
     return result;
 }

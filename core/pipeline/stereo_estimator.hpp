@@ -31,12 +31,14 @@ struct StereoModel {
 };
 
 /// Reconstructs the empty container from `pair` and builds its model (paper Sec. 3.2).
-/// Errors as StereoReconstructor::Reconstruct, LiftPixelCorners and BuildContainerModel.
+/// Errors as StereoReconstructor::Reconstruct, LiftPixelCorners and BuildContainerModel;
+/// DeadlineExceeded or Cancelled, naming the stage, once `stop` asks for it.
 absl::StatusOr<StereoModel> BuildStereoContainerModel(const stereo::StereoReconstructor& stereo,
                                                       const StereoPair& pair,
                                                       const OpeningMarks& opening,
                                                       const model::ModelConfig& config,
-                                                      const stereo::PixelCornerConfig& lift = {});
+                                                      const stereo::PixelCornerConfig& lift = {},
+                                                      const StopToken& stop = {});
 
 /// Stereo errors are correlated over whole patches (a block matcher's window spans several
 /// cells), so a cell's own sigma says less about them: the contents check is looser.
@@ -64,10 +66,11 @@ struct StereoEstimate {
 };
 
 /// Stereo pair -> cloud -> EstimateVolume (Sec. 3.1-3.4). Errors as Reconstruct and
-/// EstimateVolume.
+/// EstimateVolume, a stop's among them.
 absl::StatusOr<StereoEstimate> EstimateVolumeStereo(const model::ContainerModel& model,
                                                     const stereo::StereoReconstructor& stereo,
                                                     const StereoPair& pair,
-                                                    const StereoEstimateConfig& config);
+                                                    const StereoEstimateConfig& config,
+                                                    const StopToken& stop = {});
 
 }  // namespace soilvol::pipeline

@@ -24,7 +24,8 @@ constexpr int kMaxBoardCorners = 100;    // inner corners along one side
 struct StereoFit {
     StereoParameters parameters;
     double rms_px = 0.0;
-    cv::Mat per_view_errors;  // N x 2: RMS [px] of each view in the left and right image
+    std::vector<std::size_t> views;  // the fitted views, positions in BoardViews
+    cv::Mat per_view_errors;         // a row per fitted view: RMS [px] in the left, right image
 };
 
 absl::Status ValidateInputs(const ChessboardSpec& board, const CalibrationConfig& config) {
@@ -72,22 +73,40 @@ std::vector<cv::Point3f> BoardPoints(const ChessboardSpec& board) {
     return points;
 }
 
+// The views the fits take: all of them up to max_fit, else max_fit spread evenly.
+std::vector<std::size_t> FitViews(std::size_t usable, std::size_t max_fit) {
+    const std::size_t count = std::min(usable, std::max(max_fit, kFewestPairs));
+    std::vector<std::size_t> views(count);
+    for (std::size_t k = 0; k < count; ++k) views[k] = k * usable / count;
+    return views;
+}
+
 // Zhang's method for each camera alone, then cv::stereoCalibrate refining both cameras and the
 // pair jointly from those intrinsics (lower RMS than fixing them, same baseline within 0.01%).
-StereoFit FitStereo(const detail::BoardViews& views, const ChessboardSpec& board,
-                    const CalibrationConfig& config) {
-    const std::vector<std::vector<cv::Point3f>> objects(views.left.size(), BoardPoints(board));
+// No OpenCV fit can be interrupted: the stop is checked between them.
+absl::StatusOr<StereoFit> FitStereo(const detail::BoardViews& views, const ChessboardSpec& board,
+                                    const CalibrationConfig& config, const StopToken& stop) {
+    StereoFit fit;
+    fit.views = FitViews(views.left.size(), config.max_fit_pairs);
+    std::vector<std::vector<cv::Point2f>> left, right;
+    for (const std::size_t v : fit.views) {
+        left.push_back(views.left[v]);
+        right.push_back(views.right[v]);
+    }
+    const std::vector<std::vector<cv::Point3f>> objects(left.size(), BoardPoints(board));
     const int distortion_flags = config.fix_k3 ? cv::CALIB_FIX_K3 : 0;
     cv::Mat k_left, d_left, k_right, d_right, rotation, translation, essential, fundamental;
     std::vector<cv::Mat> rvecs, tvecs;
-    cv::calibrateCamera(objects, views.left, views.image_size, k_left, d_left, rvecs, tvecs,
+    SOILVOL_RETURN_IF_ERROR(stop.Check("calibration of the left camera"));
+    cv::calibrateCamera(objects, left, views.image_size, k_left, d_left, rvecs, tvecs,
                         distortion_flags);
-    cv::calibrateCamera(objects, views.right, views.image_size, k_right, d_right, rvecs, tvecs,
+    SOILVOL_RETURN_IF_ERROR(stop.Check("calibration of the right camera"));
+    cv::calibrateCamera(objects, right, views.image_size, k_right, d_right, rvecs, tvecs,
                         distortion_flags);
-    StereoFit fit;
+    SOILVOL_RETURN_IF_ERROR(stop.Check("stereo calibration"));
     fit.rms_px = cv::stereoCalibrate(
-        objects, views.left, views.right, k_left, d_left, k_right, d_right, views.image_size,
-        rotation, translation, essential, fundamental, fit.per_view_errors,
+        objects, left, right, k_left, d_left, k_right, d_right, views.image_size, rotation,
+        translation, essential, fundamental, fit.per_view_errors,
         cv::CALIB_USE_INTRINSIC_GUESS | distortion_flags,
         cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
     fit.parameters.image_width = views.image_size.width;
@@ -97,6 +116,31 @@ StereoFit FitStereo(const detail::BoardViews& views, const ChessboardSpec& board
     cv::cv2eigen(rotation, fit.parameters.R_right_left);
     cv::cv2eigen(translation, fit.parameters.t_right_left_m);
     return fit;
+}
+
+// Stereo RMS [px] of a pair left out of the fits: the board's pose from its left image
+// (solvePnP), projected into both images.
+double HeldOutRms(const std::vector<cv::Point3f>& board, const std::vector<cv::Point2f>& left,
+                  const std::vector<cv::Point2f>& right, const StereoParameters& parameters) {
+    const cv::Mat k_left = detail::CameraMatrix(parameters.left);
+    const cv::Mat d_left = detail::DistortionRow(parameters.left);
+    cv::Mat rvec, tvec, rotation, rvec_pair, translation, rvec_right, tvec_right;
+    cv::solvePnP(board, left, k_left, d_left, rvec, tvec);
+    cv::eigen2cv(parameters.R_right_left, rotation);
+    cv::eigen2cv(parameters.t_right_left_m, translation);
+    cv::Rodrigues(rotation, rvec_pair);
+    cv::composeRT(rvec, tvec, rvec_pair, translation, rvec_right, tvec_right);
+    std::vector<cv::Point2f> in_left, in_right;
+    cv::projectPoints(board, rvec, tvec, k_left, d_left, in_left);
+    cv::projectPoints(board, rvec_right, tvec_right, detail::CameraMatrix(parameters.right),
+                      detail::DistortionRow(parameters.right), in_right);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < board.size(); ++i) {
+        const cv::Point2f l = in_left[i] - left[i];
+        const cv::Point2f r = in_right[i] - right[i];
+        sum += static_cast<double>(l.dot(l) + r.dot(r));
+    }
+    return std::sqrt(sum / (2.0 * static_cast<double>(board.size())));
 }
 
 // Mean |y_left - y_right| [px] of one view's corners after undistortion and rectification.
@@ -122,14 +166,21 @@ double EpipolarError(const std::vector<cv::Point2f>& left, const std::vector<cv:
 }
 
 void FillPairFigures(const detail::BoardViews& views, const StereoFit& fit,
-                     StereoCalibration* calibration) {
+                     const ChessboardSpec& board, StereoCalibration* calibration) {
+    std::vector<int> row(views.indices.size(), -1);
+    for (std::size_t r = 0; r < fit.views.size(); ++r) row[fit.views[r]] = static_cast<int>(r);
     double epipolar_sum = 0.0;
     for (std::size_t i = 0; i < views.indices.size(); ++i) {
-        const int row = static_cast<int>(i);
-        const double left = fit.per_view_errors.at<double>(row, 0);
-        const double right = fit.per_view_errors.at<double>(row, 1);
-        PairError pair{views.indices[i], std::sqrt(0.5 * (left * left + right * right)),
-                       EpipolarError(views.left[i], views.right[i], *calibration)};
+        PairError pair{views.indices[i], 0.0,
+                       EpipolarError(views.left[i], views.right[i], *calibration), row[i] >= 0};
+        if (pair.fitted) {
+            const double left = fit.per_view_errors.at<double>(row[i], 0);
+            const double right = fit.per_view_errors.at<double>(row[i], 1);
+            pair.rms_px = std::sqrt(0.5 * (left * left + right * right));
+        } else {
+            pair.rms_px = HeldOutRms(BoardPoints(board), views.left[i], views.right[i],
+                                     calibration->parameters);
+        }
         epipolar_sum += pair.epipolar_px;
         calibration->pairs.push_back(pair);
     }
@@ -163,28 +214,31 @@ absl::Status CheckWork(const std::vector<ImagePair>& pairs, const CalibrationCon
 
 absl::StatusOr<StereoCalibration> Calibrate(const std::vector<ImagePair>& pairs,
                                             const ChessboardSpec& board,
-                                            const CalibrationConfig& config) {
+                                            const CalibrationConfig& config,
+                                            const StopToken& stop) {
     SOILVOL_RETURN_IF_ERROR(CheckWork(pairs, config));
     SOILVOL_ASSIGN_OR_RETURN(detail::BoardViews views,
-                             detail::DetectBoards(pairs, board, config.max_image_side_px));
+                             detail::DetectBoards(pairs, board, config.max_image_side_px, stop));
     const std::size_t needed = std::max(config.min_pairs, kFewestPairs);
     if (views.indices.size() < needed) {
         return absl::FailedPreconditionError(
             absl::StrCat(views.indices.size(), " usable chessboard pairs of ", pairs.size(), ", ",
                          needed, " needed; skipped: ", SkipSummary(views.skipped)));
     }
-    const StereoFit fit = FitStereo(views, board, config);
+    SOILVOL_ASSIGN_OR_RETURN(const StereoFit fit, FitStereo(views, board, config, stop));
     if (!(fit.rms_px <= config.max_rms_px)) {
         return absl::FailedPreconditionError(absl::StrCat(
             "stereo reprojection RMS ", fit.rms_px, " px exceeds max_rms_px ", config.max_rms_px));
     }
+    SOILVOL_RETURN_IF_ERROR(stop.Check("rectification"));
     absl::StatusOr<StereoCalibration> calibration = detail::Rectify(fit.parameters);
     if (!calibration.ok()) {
         return absl::FailedPreconditionError(absl::StrCat(
             "the chessboards gave unusable parameters: ", calibration.status().message()));
     }
     calibration->rms_reprojection_px = fit.rms_px;
-    FillPairFigures(views, fit, &*calibration);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("per-pair figures"));
+    FillPairFigures(views, fit, board, &*calibration);
     if (!(calibration->baseline_m >= config.min_baseline_m)) {
         return absl::FailedPreconditionError(absl::StrCat(
             "the chessboards gave a degenerate rig: baseline ", calibration->baseline_m,
@@ -207,10 +261,11 @@ absl::StatusOr<StereoCalibration> Calibrate(const std::vector<ImagePair>& pairs,
 
 absl::StatusOr<StereoCalibration> CalibrateFromChessboards(const std::vector<ImagePair>& pairs,
                                                            const ChessboardSpec& board,
-                                                           const CalibrationConfig& config) {
+                                                           const CalibrationConfig& config,
+                                                           const StopToken& stop) {
     SOILVOL_RETURN_IF_ERROR(ValidateInputs(board, config));
     try {
-        return Calibrate(pairs, board, config);
+        return Calibrate(pairs, board, config, stop);
     } catch (const cv::Exception& e) {
         return absl::InternalError(absl::StrCat("chessboard calibration failed: ", e.what()));
     } catch (const std::bad_alloc&) {

@@ -1,14 +1,24 @@
 #include "core/stereo/chessboard_detector.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <exception>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <string_view>
+#include <system_error>
+#include <thread>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
 #include "core/stereo/opencv_image.hpp"
 
 namespace soilvol::stereo::detail {
@@ -25,6 +35,8 @@ constexpr int kMaxDetectionSidePx = 1280;
 constexpr double kHalfWindowPerSpacing = 0.3;
 constexpr int kMinHalfWindow = 2;
 constexpr int kMaxHalfWindow = 11;
+// How often a search on its own thread looks at the stop token.
+constexpr std::chrono::milliseconds kStopPoll(20);
 
 std::string SizeText(const cv::Size& size) { return absl::StrCat(size.width, "x", size.height); }
 
@@ -90,9 +102,72 @@ void MatchOrder(const std::vector<cv::Point2f>& left, cv::Size pattern,
     *right = std::move(best);
 }
 
+// Searches left to finish alone after their caller stopped, process-wide. Each may run for up
+// to ~20 s on a hostile image: past this many, a stopped call waits for its search instead,
+// so that cancelling calls can never pile up threads.
+constexpr int kMaxAbandonedSearches = 2;
+std::atomic<int> g_abandoned{0};
+
+// One board search on a thread of its own, so that a stop ends the wait at once; the thread
+// shares only this state and its own reference to the image, and finishes alone after a stop.
+struct Search {
+    std::mutex mutex;
+    std::condition_variable finished;
+    bool done = false;
+    bool abandoned = false;
+    std::optional<std::vector<cv::Point2f>> corners;
+    std::exception_ptr error;
+};
+
+// Leaves `search` to finish alone when the budget allows; false when the caller must wait.
+bool Abandon(Search& search) {
+    int now = g_abandoned.load();
+    do {
+        if (now >= kMaxAbandonedSearches) return false;
+    } while (!g_abandoned.compare_exchange_weak(now, now + 1));
+    search.abandoned = true;
+    return true;
+}
+
+absl::StatusOr<std::optional<std::vector<cv::Point2f>>> DetectUnlessStopped(
+    const cv::Mat& grey, cv::Size pattern, const StopToken& stop, std::string_view stage) {
+    if (!stop.CanStop()) return DetectChessboard(grey, pattern);
+    SOILVOL_RETURN_IF_ERROR(stop.Check(stage));
+    auto search = std::make_shared<Search>();
+    const auto run = [search, grey, pattern] {
+        std::optional<std::vector<cv::Point2f>> corners;
+        std::exception_ptr error;
+        try {
+            corners = DetectChessboard(grey, pattern);
+        } catch (...) {
+            error = std::current_exception();
+        }
+        const std::lock_guard<std::mutex> lock(search->mutex);
+        search->corners = std::move(corners);
+        search->error = error;
+        search->done = true;
+        if (search->abandoned) --g_abandoned;
+        search->finished.notify_all();
+    };
+    try {
+        std::thread(run).detach();
+    } catch (const std::system_error&) {
+        return DetectChessboard(grey, pattern);  // no thread to spare: search here, unstoppable
+    }
+    std::unique_lock<std::mutex> lock(search->mutex);
+    while (!search->finished.wait_for(lock, kStopPoll, [&] { return search->done; })) {
+        if (stop.StopRequested() && Abandon(*search)) return stop.Check(stage);
+    }
+    SOILVOL_RETURN_IF_ERROR(stop.Check(stage));
+    if (search->error) std::rethrow_exception(search->error);
+    return std::move(search->corners);
+}
+
 // Decodes and detects one pair; a non-OK status carries the reason it is skipped, and
-// *too_large says whether that reason fails the whole calibration instead.
-absl::Status DetectPair(const ImagePair& pair, cv::Size pattern, int max_side_px, BoardViews* views,
+// *too_large says whether that reason fails the whole calibration instead. After a stop the
+// status means nothing.
+absl::Status DetectPair(const ImagePair& pair, cv::Size pattern, int max_side_px,
+                        const StopToken& stop, std::string_view stage, BoardViews* views,
                         bool* too_large) {
     absl::StatusOr<cv::Mat> left = DecodeGreyMat(pair.left, "left", max_side_px, too_large);
     if (!left.ok()) return left.status();
@@ -108,10 +183,12 @@ absl::Status DetectPair(const ImagePair& pair, cv::Size pattern, int max_side_px
                                                        SizeText(views->image_size)));
     }
     const std::string board = SizeText(pattern);
-    std::optional<std::vector<cv::Point2f>> left_corners = DetectChessboard(*left, pattern);
+    SOILVOL_ASSIGN_OR_RETURN(std::optional<std::vector<cv::Point2f>> left_corners,
+                             DetectUnlessStopped(*left, pattern, stop, stage));
     if (!left_corners)
         return absl::NotFoundError(absl::StrCat("left: chessboard ", board, " not found"));
-    std::optional<std::vector<cv::Point2f>> right_corners = DetectChessboard(*right, pattern);
+    SOILVOL_ASSIGN_OR_RETURN(std::optional<std::vector<cv::Point2f>> right_corners,
+                             DetectUnlessStopped(*right, pattern, stop, stage));
     if (!right_corners)
         return absl::NotFoundError(absl::StrCat("right: chessboard ", board, " not found"));
     MatchOrder(*left_corners, pattern, &*right_corners);
@@ -150,13 +227,19 @@ std::optional<std::vector<cv::Point2f>> DetectChessboard(const cv::Mat& grey, cv
 }
 
 absl::StatusOr<BoardViews> DetectBoards(const std::vector<ImagePair>& pairs,
-                                        const ChessboardSpec& board, int max_side_px) {
+                                        const ChessboardSpec& board, int max_side_px,
+                                        const StopToken& stop) {
     BoardViews views;
     const cv::Size pattern(board.cols, board.rows);
     for (std::size_t index = 0; index < pairs.size(); ++index) {
+        const std::string stage =
+            absl::StrCat("chessboard detection (pair ", index + 1, " of ", pairs.size(), ")");
+        SOILVOL_RETURN_IF_ERROR(stop.Check(stage));
         bool too_large = false;
         const absl::Status status =
-            DetectPair(pairs[index], pattern, max_side_px, &views, &too_large);
+            DetectPair(pairs[index], pattern, max_side_px, stop, stage, &views, &too_large);
+        // A search cut short by a stop is no reason to skip the pair (a stop stays a stop).
+        SOILVOL_RETURN_IF_ERROR(stop.Check(stage));
         if (too_large) {
             return absl::InvalidArgumentError(absl::StrCat("pair ", index, ": ", status.message()));
         }
@@ -170,3 +253,9 @@ absl::StatusOr<BoardViews> DetectBoards(const std::vector<ImagePair>& pairs,
 }
 
 }  // namespace soilvol::stereo::detail
+
+namespace soilvol::stereo {
+
+int AbandonedBoardSearches() { return detail::g_abandoned.load(); }
+
+}  // namespace soilvol::stereo

@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
 #include "core/stereo/opencv_image.hpp"
 
 namespace soilvol::stereo {
@@ -44,6 +45,38 @@ cv::Rect Matched(PixelRect region, const SgbmConfig& config, int width, int heig
     return {u0, grown.v0, grown.u1 - u0, grown.v1 - grown.v0};
 }
 
+// Matches `matched` of both images (CV_16S disparities of its size). A larger area than a band
+// is matched band by band: each band's rows plus the margin on either side, keeping its own
+// rows (path aggregation and speckle filtering see past the band's edge by the margin).
+absl::StatusOr<cv::Mat> Match(const cv::Ptr<cv::StereoSGBM>& sgbm, const cv::Mat& left,
+                              const cv::Mat& right, const cv::Rect& matched,
+                              const SgbmConfig& config, const StopToken& stop) {
+    cv::Mat disparity;
+    const std::int64_t area = static_cast<std::int64_t>(matched.width) * matched.height;
+    if (area <= config.max_band_pixels) {
+        SOILVOL_RETURN_IF_ERROR(stop.Check("stereo matching"));
+        sgbm->compute(left(matched), right(matched), disparity);
+        return disparity;
+    }
+    disparity.create(matched.size(), CV_16S);
+    const auto most = static_cast<int>(std::min<std::int64_t>(
+        (area + config.max_band_pixels - 1) / config.max_band_pixels, matched.height));
+    const int band_rows = (matched.height + most - 1) / most;
+    const int bands = (matched.height + band_rows - 1) / band_rows;
+    for (int y0 = 0, band = 1; y0 < matched.height; y0 += band_rows, ++band) {
+        SOILVOL_RETURN_IF_ERROR(
+            stop.Check(absl::StrCat("stereo matching (band ", band, " of ", bands, ")")));
+        const int y1 = std::min(y0 + band_rows, matched.height);
+        const int top = std::max(y0 - config.band_margin_px, 0);
+        const int bottom = std::min(y1 + config.band_margin_px, matched.height);
+        const cv::Rect rows(matched.x, matched.y + top, matched.width, bottom - top);
+        cv::Mat band_disparity;
+        sgbm->compute(left(rows), right(rows), band_disparity);
+        band_disparity.rowRange(y0 - top, y1 - top).copyTo(disparity.rowRange(y0, y1));
+    }
+    return disparity;
+}
+
 }  // namespace
 
 absl::Status ValidateSgbmConfig(const SgbmConfig& config) {
@@ -67,12 +100,17 @@ absl::Status ValidateSgbmConfig(const SgbmConfig& config) {
             "uniqueness_ratio must be in [0, 100], pre_filter_cap in [1, 63], speckle figures >= "
             "0");
     }
+    if (config.max_band_pixels < 1 || config.band_margin_px < 0) {
+        return absl::InvalidArgumentError(
+            "max_band_pixels must be positive and band_margin_px >= 0");
+    }
     return absl::OkStatus();
 }
 
 absl::StatusOr<DisparityMap> ComputeDisparity(const GreyImage& left_rectified,
                                               const GreyImage& right_rectified,
-                                              const SgbmConfig& config, PixelRect region) {
+                                              const SgbmConfig& config, PixelRect region,
+                                              const StopToken& stop) {
     if (auto status = ValidateSgbmConfig(config); !status.ok()) return status;
     if (auto status = CheckImage(left_rectified, "left"); !status.ok()) return status;
     if (auto status = CheckImage(right_rectified, "right"); !status.ok()) return status;
@@ -97,18 +135,20 @@ absl::StatusOr<DisparityMap> ComputeDisparity(const GreyImage& left_rectified,
     const int area = config.block_size * config.block_size;
     const int p1 = config.p1 > 0 ? config.p1 : 8 * area;
     const int p2 = config.p2 > 0 ? config.p2 : 32 * area;
-    cv::Mat disparity;
+    absl::StatusOr<cv::Mat> matched_disparity;
     try {
         cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(
             config.min_disparity, config.num_disparities, config.block_size, p1,
             std::max(p2, p1 + 1), config.disp12_max_diff, config.pre_filter_cap,
             config.uniqueness_ratio, config.speckle_window_size, config.speckle_range,
             Mode(config.mode));
-        sgbm->compute(detail::WrapGrey(left_rectified)(matched),
-                      detail::WrapGrey(right_rectified)(matched), disparity);
+        matched_disparity = Match(sgbm, detail::WrapGrey(left_rectified),
+                                  detail::WrapGrey(right_rectified), matched, config, stop);
     } catch (const cv::Exception& e) {
         return absl::InternalError(absl::StrCat("stereo matching failed: ", e.what()));
     }
+    if (!matched_disparity.ok()) return matched_disparity.status();
+    const cv::Mat& disparity = *matched_disparity;
     // Fixed point with 4 fractional bits; below min_disparity means no match.
     const int invalid_below = config.min_disparity * 16;
     for (int v = std::max(kept.v0, matched.y); v < std::min(kept.v1, matched.y + matched.height);

@@ -5,6 +5,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/common/image.hpp"
+#include "core/common/stop_token.hpp"
 
 namespace soilvol::stereo {
 
@@ -28,6 +29,14 @@ struct SgbmConfig {
     int speckle_window_size = 100;  ///< [px]; 0 disables speckle filtering
     int speckle_range = 2;          ///< [px]
     SgbmMode mode = SgbmMode::kSgbm3Way;
+    /// cv::StereoSGBM cannot be interrupted and its time grows with the area (24 MP: 3-4 s): a
+    /// matched area above `max_band_pixels` is matched in the fewest equal horizontal bands of
+    /// at most that many pixels, each with `band_margin_px` rows more on either side (matched
+    /// and dropped), and the stop is checked between bands. 640x480 and 1280x720 are matched in
+    /// one piece. On Middlebury Aloe, bands of 74 rows agree with one piece within 1 px on
+    /// 99.85% of the pixels in 3-way mode, 100.00% in plain SGBM.
+    std::int64_t max_band_pixels = 2'000'000;
+    int band_margin_px = 64;
 };
 
 /// Disparities [px] of the left image, row-major; NaN where matching failed.
@@ -60,9 +69,11 @@ absl::Status ValidateSgbmConfig(const SgbmConfig& config);
 
 /// Matches two rectified images of equal size. Only `region` of the left image is matched (its
 /// right-image search range is taken along); outside it the map is NaN. An empty region means
-/// the whole image. InvalidArgument for bad parameters or sizes that differ.
+/// the whole image. InvalidArgument for bad parameters or sizes that differ; DeadlineExceeded or
+/// Cancelled once `stop` asks for it.
 absl::StatusOr<DisparityMap> ComputeDisparity(const GreyImage& left_rectified,
                                               const GreyImage& right_rectified,
-                                              const SgbmConfig& config, PixelRect region = {});
+                                              const SgbmConfig& config, PixelRect region = {},
+                                              const StopToken& stop = {});
 
 }  // namespace soilvol::stereo

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
 #include "core/stereo/image_codec.hpp"
 #include "core/stereo/opencv_camera.hpp"
@@ -122,36 +123,42 @@ absl::StatusOr<StereoReconstructor> StereoReconstructor::Create(
 
 absl::StatusOr<StereoCloud> StereoReconstructor::Reconstruct(std::string_view left,
                                                              std::string_view right,
-                                                             PixelRect region) const {
+                                                             PixelRect region,
+                                                             const StopToken& stop) const {
     Timer timer;
     const int max_side = impl_->config.max_image_side_px;
+    SOILVOL_RETURN_IF_ERROR(stop.Check("image decoding"));
     absl::StatusOr<GreyImage> left_image = DecodeGrey(left, "left", max_side);
     if (!left_image.ok()) return left_image.status();
+    SOILVOL_RETURN_IF_ERROR(stop.Check("image decoding"));
     absl::StatusOr<GreyImage> right_image = DecodeGrey(right, "right", max_side);
     if (!right_image.ok()) return right_image.status();
     const double decode_ms = timer.Lap();
-    absl::StatusOr<StereoCloud> cloud = Reconstruct(*left_image, *right_image, region);
+    absl::StatusOr<StereoCloud> cloud = Reconstruct(*left_image, *right_image, region, stop);
     if (cloud.ok()) cloud->timings.decode_ms = decode_ms;
     return cloud;
 }
 
 absl::StatusOr<StereoCloud> StereoReconstructor::Reconstruct(const GreyImage& left,
                                                              const GreyImage& right,
-                                                             PixelRect region) const {
+                                                             PixelRect region,
+                                                             const StopToken& stop) const {
     const StereoParameters& p = impl_->calibration.parameters;
     if (auto status = CheckSize(left, p, "left"); !status.ok()) return status;
     if (auto status = CheckSize(right, p, "right"); !status.ok()) return status;
     StereoCloud cloud;
     Timer timer;
     // Sec. 3.1: rectify, match, reproject.
+    SOILVOL_RETURN_IF_ERROR(stop.Check("rectification"));
     const GreyImage left_rectified = Remap(left, impl_->left_map1, impl_->left_map2);
     const GreyImage right_rectified = Remap(right, impl_->right_map1, impl_->right_map2);
     cloud.timings.rectify_ms = timer.Lap();
     absl::StatusOr<DisparityMap> disparity =
-        ComputeDisparity(left_rectified, right_rectified, impl_->config.sgbm, region);
+        ComputeDisparity(left_rectified, right_rectified, impl_->config.sgbm, region, stop);
     if (!disparity.ok()) return disparity.status();
     cloud.disparity = *std::move(disparity);
     cloud.timings.match_ms = timer.Lap();
+    SOILVOL_RETURN_IF_ERROR(stop.Check("reprojection"));
 
     const ReconstructConfig& config = impl_->config;
     // Disparities below this are beyond max_range_m (also in the least favourable corner).

@@ -8,6 +8,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/common/image.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 #include "core/stereo/calibration.hpp"
 #include "core/stereo/disparity.hpp"
@@ -58,11 +59,13 @@ class StereoReconstructor {
 
     /// Encoded images (8/16-bit, grey or colour) of the calibration's size; InvalidArgument
     /// naming "left"/"right" otherwise. Only `region` (rectified left pixels; empty = all) is
-    /// matched.
+    /// matched. DeadlineExceeded or Cancelled, naming the stage, once `stop` asks for it.
     absl::StatusOr<StereoCloud> Reconstruct(std::string_view left, std::string_view right,
-                                            PixelRect region = {}) const;
+                                            PixelRect region = {},
+                                            const StopToken& stop = {}) const;
     absl::StatusOr<StereoCloud> Reconstruct(const GreyImage& left, const GreyImage& right,
-                                            PixelRect region = {}) const;
+                                            PixelRect region = {},
+                                            const StopToken& stop = {}) const;
 
     /// Rectified left pixel of a pixel on the left image as uploaded (distorted).
     Eigen::Vector2d RectifyLeftPixel(const Eigen::Vector2d& raw_px) const;

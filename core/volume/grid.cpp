@@ -1,5 +1,6 @@
 #include "core/volume/grid.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <tuple>
 
@@ -12,14 +13,24 @@ int Grid::CellOf(double x, double y) const {
     return static_cast<int>(fy) * cols + static_cast<int>(fx);
 }
 
+Eigen::Vector2d GridShape(const Polygon2d& opening, double cell_m) {
+    const Eigen::Vector2d extent = opening.Max() - opening.Min();
+    // A tiny tolerance keeps an exact multiple of the cell size from adding an empty column.
+    return {std::max(1.0, std::ceil(extent.x() / cell_m - 1e-9)),
+            std::max(1.0, std::ceil(extent.y() / cell_m - 1e-9))};
+}
+
+double GridCells(const Polygon2d& opening, double cell_m) {
+    return GridShape(opening, cell_m).prod();
+}
+
 Grid MakeGrid(const Polygon2d& opening, double cell_m) {
     Grid grid;
     grid.cell_m = cell_m;
     grid.origin = opening.Min();
-    const Eigen::Vector2d extent = opening.Max() - grid.origin;
-    // A tiny tolerance keeps an exact multiple of the cell size from adding an empty column.
-    grid.cols = std::max(1, static_cast<int>(std::ceil(extent.x() / cell_m - 1e-9)));
-    grid.rows = std::max(1, static_cast<int>(std::ceil(extent.y() / cell_m - 1e-9)));
+    const Eigen::Vector2d shape = GridShape(opening, cell_m);
+    grid.cols = static_cast<int>(shape.x());
+    grid.rows = static_cast<int>(shape.y());
     grid.weight.resize(static_cast<std::size_t>(grid.NumCells()));
     grid.anchor.resize(static_cast<std::size_t>(grid.NumCells()));
     for (int i = 0; i < grid.NumCells(); ++i) {

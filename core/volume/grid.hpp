@@ -25,10 +25,18 @@ struct Grid {
     int CellOf(double x, double y) const;
 };
 
-/// Covers `opening` with cells of `cell_m` (> 0), starting at its min corner. Each cell's weight
-/// is its exact area inside the opening, so the weights sum to the opening area at any size, and
-/// its anchor is the centroid of that area: a planar surface evaluated at the anchor times the
-/// weight is its exact integral over the cell.
+/// Columns (x) and rows (y) of a grid of `cell_m` (> 0) over the opening's bounding box from its
+/// min corner, at least 1 each; an extent within 1e-9 cells of a multiple of the cell adds no
+/// column. Doubles, since tiny cells count past an int.
+Eigen::Vector2d GridShape(const Polygon2d& opening, double cell_m);
+
+/// Cells [count] of that grid (the product of GridShape).
+double GridCells(const Polygon2d& opening, double cell_m);
+
+/// Covers `opening` with the GridShape cells of `cell_m` (> 0), starting at its min corner. Each
+/// cell's weight is its exact area inside the opening, so the weights sum to the opening area at
+/// any size, and its anchor is the centroid of that area: a planar surface evaluated at the anchor
+/// times the weight is its exact integral over the cell.
 Grid MakeGrid(const Polygon2d& opening, double cell_m);
 
 /// Point indices per cell (CSR): points of cell i are index[start[i] .. start[i + 1]).

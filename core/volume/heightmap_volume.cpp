@@ -163,11 +163,6 @@ std::vector<double> BoundUnobservedSoil(const Grid& grid, const std::vector<doub
 
 }  // namespace
 
-double GridCells(const Polygon2d& opening, double cell_m) {
-    const Eigen::Vector2d extent = opening.Max() - opening.Min();
-    return std::ceil(extent.x() / cell_m) * std::ceil(extent.y() / cell_m);
-}
-
 double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening,
                          const HeightmapConfig& config) {
     const Eigen::Vector2d extent = opening.Max() - opening.Min();
@@ -210,7 +205,8 @@ WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, 
 
 absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
                                                   const std::vector<WeightedCloud>& empty,
-                                                  const HeightmapConfig& config) {
+                                                  const HeightmapConfig& config,
+                                                  const StopToken& stop) {
     WeightedCloud all;
     for (const WeightedCloud& scan : empty) {
         all.points.insert(all.points.end(), scan.points.begin(), scan.points.end());
@@ -218,7 +214,8 @@ absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
     }
     EmptySurface out;
     SOILVOL_ASSIGN_OR_RETURN(out.map,
-                             EstimateSurface(grid, all.points, all.weights, config.surface));
+                             EstimateSurface(grid, all.points, all.weights, config.surface, stop));
+    SOILVOL_RETURN_IF_ERROR(stop.Check("empty surface bounds"));
     out.unobserved_sigma_m =
         BoundUnobservedEmpty(grid, FreeSpaceCeiling(grid, empty), all.points, out.map);
     for (std::size_t k = 0; k < out.map.height.size(); ++k) {
@@ -239,21 +236,22 @@ double EmptyMinZ(const std::vector<WeightedCloud>& empty_inside) {
 
 absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
                                              const WeightedCloud& scan, const Polygon2d& opening,
-                                             const HeightmapConfig& config) {
+                                             const HeightmapConfig& config, const StopToken& stop) {
     const EmptySide empty{
         EmptyMinZ(empty_inside),
         [&](const Grid& grid) -> absl::StatusOr<std::shared_ptr<const EmptySurface>> {
             SOILVOL_ASSIGN_OR_RETURN(EmptySurface surface,
-                                     EstimateEmptySurface(grid, empty_inside, config));
+                                     EstimateEmptySurface(grid, empty_inside, config, stop));
             return std::make_shared<const EmptySurface>(std::move(surface));
         }};
-    return HeightmapVolume(empty, scan, opening, config);
+    return HeightmapVolume(empty, scan, opening, config, stop);
 }
 
 absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const WeightedCloud& scan,
                                              const Polygon2d& opening,
-                                             const HeightmapConfig& config) {
+                                             const HeightmapConfig& config, const StopToken& stop) {
     const WeightedCloud column = SelectColumn(scan, opening, empty_side.min_z, config);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("grid"));
     const double cell_m =
         config.cell_m > 0.0
             ? config.cell_m
@@ -271,8 +269,10 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const 
     const EmptySurface& empty_surface = *empty_entry;
     const SurfaceMap& empty = empty_surface.map;
     const std::vector<double>& unobserved_sigma = empty_surface.unobserved_sigma_m;
-    SOILVOL_ASSIGN_OR_RETURN(SurfaceMap soil,
-                             EstimateSurface(grid, column.points, column.weights, config.surface));
+    SOILVOL_RETURN_IF_ERROR(stop.Check("soil surface fit"));
+    SOILVOL_ASSIGN_OR_RETURN(SurfaceMap soil, EstimateSurface(grid, column.points, column.weights,
+                                                              config.surface, stop));
+    SOILVOL_RETURN_IF_ERROR(stop.Check("soil surface bounds"));
     const std::vector<double> unseen_soil_sigma =
         BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, {column}), empty, opening,
                             config.max_heap_slope, column.points.size(), soil);

@@ -6,6 +6,7 @@
 #include "absl/status/statusor.h"
 #include "core/cloud/ray_weights.hpp"
 #include "core/common/polygon.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 #include "core/volume/surface_estimator.hpp"
 #include "core/volume/volume_result.hpp"
@@ -29,9 +30,6 @@ struct HeightmapConfig {
     SurfaceConfig surface;
 };
 
-/// Cells [count] of a grid of `cell_m` over the opening's bounding box.
-double GridCells(const Polygon2d& opening, double cell_m);
-
 /// Cell size [m] the automatic rule picks for `points_in_opening` points over the opening: the
 /// density target's size, rounded to a step of 2^(1/8) from min_cell_m (so that scans of one
 /// container from one sensor share a grid, and its empty surface), within the limits.
@@ -53,10 +51,12 @@ struct EmptySurface {
     double observed_area_m2 = 0.0;           ///< of the cells the empty scans saw
 };
 
-/// FailedPrecondition when no cell of `empty` (container frame) can be fitted.
+/// FailedPrecondition when no cell of `empty` (container frame) can be fitted; DeadlineExceeded
+/// or Cancelled once `stop` asks for it.
 absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
                                                   const std::vector<WeightedCloud>& empty,
-                                                  const HeightmapConfig& config);
+                                                  const HeightmapConfig& config,
+                                                  const StopToken& stop = {});
 
 /// The empty container as HeightmapVolume reads it: how deep its inside reaches, and its
 /// surface over any grid (computed on demand, or taken from a cache).
@@ -69,15 +69,18 @@ struct EmptySide {
 double EmptyMinZ(const std::vector<WeightedCloud>& empty_inside);
 
 /// Soil volume between the empty surface and the scan's surface, both in the container frame
-/// with ray weights. FailedPrecondition when either surface has no measurable cell.
+/// with ray weights. FailedPrecondition when either surface has no measurable cell;
+/// DeadlineExceeded or Cancelled once `stop` asks for it (`empty` takes care of its own).
 absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty, const WeightedCloud& scan,
                                              const Polygon2d& opening,
-                                             const HeightmapConfig& config);
+                                             const HeightmapConfig& config,
+                                             const StopToken& stop = {});
 
 /// The same with the empty surface computed from the empty scans' inside points (container
 /// frame, with ray weights); `empty_inside` must outlive the call only.
 absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
                                              const WeightedCloud& scan, const Polygon2d& opening,
-                                             const HeightmapConfig& config);
+                                             const HeightmapConfig& config,
+                                             const StopToken& stop = {});
 
 }  // namespace soilvol::volume

@@ -11,6 +11,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
 
 namespace soilvol::volume {
 namespace {
@@ -77,11 +78,12 @@ std::optional<CellPlane> FitCell(const Cloud& points, const std::vector<int>& me
 
 // Sec. 3.4: a hole takes the mean coefficients of the nearest ring of cells that have planes;
 // its median point is where the vertical through the cell centre meets that plane.
-void FillHoles(const Grid& grid, std::vector<CellPlane>& planes) {
+void FillHoles(const Grid& grid, std::vector<CellPlane>& planes, const StopToken& stop) {
     const std::vector<CellPlane> fitted = planes;
     for (int cell = 0; cell < grid.NumCells(); ++cell) {
         CellPlane& hole = planes[static_cast<std::size_t>(cell)];
         if (hole.fitted) continue;
+        if (stop.StopRequested()) return;
         const int col = cell % grid.cols, row = cell / grid.cols;
         Eigen::Vector4d sum = Eigen::Vector4d::Zero();
         int n = 0;
@@ -109,11 +111,13 @@ void FillHoles(const Grid& grid, std::vector<CellPlane>& planes) {
 }
 
 absl::StatusOr<std::vector<CellPlane>> FitGrid(const Grid& grid, const Cloud& points,
-                                               const PaperConfig& config, const char* what) {
+                                               const PaperConfig& config, const char* what,
+                                               const StopToken& stop) {
     const CellBins bins = BinPoints(grid, points);
     std::vector<CellPlane> planes(static_cast<std::size_t>(grid.NumCells()));
     int fitted = 0;
     for (int cell = 0; cell < grid.NumCells(); ++cell) {
+        if (stop.StopRequested()) break;
         const auto k = static_cast<std::size_t>(cell);
         const std::vector<int> members(bins.index.begin() + bins.start[k],
                                        bins.index.begin() + bins.start[k + 1]);
@@ -122,29 +126,32 @@ absl::StatusOr<std::vector<CellPlane>> FitGrid(const Grid& grid, const Cloud& po
             ++fitted;
         }
     }
+    SOILVOL_RETURN_IF_ERROR(stop.Check(absl::StrCat("plane fits of the ", what)));
     if (fitted == 0) {
         return absl::FailedPreconditionError(
             absl::StrCat("paper method: no cell of the ", what, " has a plane"));
     }
-    FillHoles(grid, planes);
+    FillHoles(grid, planes, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check(absl::StrCat("hole filling of the ", what)));
     return planes;
 }
 
 }  // namespace
 
 absl::StatusOr<VolumeResult> PaperVolume(const Cloud& empty_inside, const Cloud& scan_column,
-                                         const Polygon2d& opening, const PaperConfig& config) {
+                                         const Polygon2d& opening, const PaperConfig& config,
+                                         const StopToken& stop) {
     VolumeResult result;
     Grid& grid = result.grid;
     grid.cell_m = config.cell_m;
     grid.origin = opening.Min();
-    const Eigen::Vector2d extent = opening.Max() - grid.origin;
-    grid.cols = std::max(1, static_cast<int>(std::ceil(extent.x() / config.cell_m - 1e-9)));
-    grid.rows = std::max(1, static_cast<int>(std::ceil(extent.y() / config.cell_m - 1e-9)));
+    const Eigen::Vector2d shape = GridShape(opening, config.cell_m);
+    grid.cols = static_cast<int>(shape.x());
+    grid.rows = static_cast<int>(shape.y());
     grid.weight.assign(static_cast<std::size_t>(grid.NumCells()), config.cell_m * config.cell_m);
-    auto model = FitGrid(grid, empty_inside, config, "model");
+    auto model = FitGrid(grid, empty_inside, config, "model", stop);
     if (!model.ok()) return model.status();
-    auto scan = FitGrid(grid, scan_column, config, "scan");
+    auto scan = FitGrid(grid, scan_column, config, "scan", stop);
     if (!scan.ok()) return scan.status();
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     result.soil_height_m.assign(num_cells, kNaN);

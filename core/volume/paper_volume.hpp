@@ -2,6 +2,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/common/polygon.hpp"
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 #include "core/volume/volume_result.hpp"
 
@@ -19,8 +20,10 @@ struct PaperConfig {
 /// paper's cell counts show): a RANSAC plane in the model and in the scan, holes take the mean
 /// plane coefficients of the nearest cells that have one, height = Euclidean distance between
 /// the median points of the two planes, volume = sum of height x cell area.
-/// FailedPrecondition when the model or the scan has no cell with a plane.
+/// FailedPrecondition when the model or the scan has no cell with a plane; DeadlineExceeded or
+/// Cancelled once `stop` asks for it.
 absl::StatusOr<VolumeResult> PaperVolume(const Cloud& empty_inside, const Cloud& scan_column,
-                                         const Polygon2d& opening, const PaperConfig& config);
+                                         const Polygon2d& opening, const PaperConfig& config,
+                                         const StopToken& stop = {});
 
 }  // namespace soilvol::volume

@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "core/common/statistics.hpp"
+#include "core/common/status_macros.hpp"
 
 namespace soilvol::volume {
 namespace {
@@ -210,10 +211,11 @@ std::vector<Sample> GatherWindow(const Grid& grid, const CellBins& bins, const W
 
 // Robust noise sigma along z: median over windows of the MAD of least-squares plane residuals.
 double EstimateNoise(const Grid& grid, const CellBins& bins, const WeightedPoints& wp, int half,
-                     double window_m, const SurfaceConfig& config) {
+                     double window_m, const SurfaceConfig& config, const StopToken& stop) {
     std::vector<double> sigmas;
     for (int cell = 0; cell < grid.NumCells(); ++cell) {
         if (grid.weight[static_cast<std::size_t>(cell)] <= 0.0) continue;
+        if (stop.StopRequested()) break;
         const std::vector<Sample> samples = GatherWindow(grid, bins, wp, cell, half);
         if (samples.size() < 8) continue;
         const PlaneFit fit = FitPlane(samples, {}, window_m, config.max_slope);
@@ -259,7 +261,7 @@ bool operator==(const SurfaceConfig& a, const SurfaceConfig& b) {
 
 absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points,
                                            const std::vector<float>& weights,
-                                           const SurfaceConfig& config) {
+                                           const SurfaceConfig& config, const StopToken& stop) {
     if (!weights.empty() && weights.size() != points.size()) {
         return absl::InvalidArgumentError(
             absl::StrCat("surface: ", weights.size(), " weights for ", points.size(), " points"));
@@ -275,7 +277,7 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
     map.window_cells = WindowCells(grid, density, config);
     const int half = map.window_cells / 2;
     const double window_m = map.window_cells * grid.cell_m;
-    map.noise_sigma_m = EstimateNoise(grid, bins, wp, half, window_m, config);
+    map.noise_sigma_m = EstimateNoise(grid, bins, wp, half, window_m, config, stop);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     map.height.assign(num_cells, kNaN);
     map.variance.assign(num_cells, kNaN);
@@ -288,7 +290,7 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
 #pragma omp parallel for schedule(dynamic, 8) num_threads(threads)
     for (int cell = 0; cell < grid.NumCells(); ++cell) {
         const auto k = static_cast<std::size_t>(cell);
-        if (grid.weight[k] <= 0.0) continue;
+        if (grid.weight[k] <= 0.0 || stop.StopRequested()) continue;
         const std::vector<Sample> samples = GatherWindow(grid, bins, wp, cell, half);
         // Measured when returns that tell a height cover a fair share of the cell (its fine
         // bins), or, for cells finer than the returns' spacing, when its window holds a fair
@@ -311,6 +313,7 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
         map.variance[k] = scale * scale * fit.var_factor;
         map.support[k] = bins.start[k + 1] - bins.start[k];
     }
+    SOILVOL_RETURN_IF_ERROR(stop.Check("surface fit"));
     for (std::size_t k = 0; k < num_cells; ++k) {
         if (map.support[k] > 0) ++map.measured;
     }
@@ -319,11 +322,12 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
             absl::StrCat("no grid cell has enough points to fit a surface (", points.size(),
                          " points over ", grid.NumCells(), " cells of ", grid.cell_m, " m)"));
     }
-    FillHoles(grid, map);
+    FillHoles(grid, map, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("hole filling"));
     return map;
 }
 
-void FillHoles(const Grid& grid, SurfaceMap& map) {
+void FillHoles(const Grid& grid, SurfaceMap& map, const StopToken& stop) {
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     std::vector<int> holes;
     std::vector<double> measured_var;
@@ -341,6 +345,7 @@ void FillHoles(const Grid& grid, SurfaceMap& map) {
     // where a membrane would flatten it.
     std::vector<double> filled(holes.size(), kNaN);
     for (std::size_t h = 0; h < holes.size(); ++h) {
+        if (stop.StopRequested()) return;
         const int cell = holes[h];
         const int col = cell % grid.cols, row = cell / grid.cols;
         const Eigen::Vector2d centre = grid.anchor[static_cast<std::size_t>(cell)];

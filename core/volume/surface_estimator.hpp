@@ -3,6 +3,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 #include "core/volume/grid.hpp"
 
@@ -47,13 +48,15 @@ struct SurfaceMap {
 /// Fits each cell's surface height by a robust weighted local plane evaluated at the cell's
 /// anchor, from `points` (container frame) with per-point `weights` >= 0 (empty: all 1),
 /// then fills holes by harmonic interpolation. FailedPrecondition when no cell is measured;
-/// InvalidArgument when the weights do not match the points.
+/// InvalidArgument when the weights do not match the points; DeadlineExceeded or Cancelled once
+/// `stop` asks for it.
 absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points,
                                            const std::vector<float>& weights,
-                                           const SurfaceConfig& config);
+                                           const SurfaceConfig& config, const StopToken& stop = {});
 
 /// Fills the NaN heights of cells with weight > 0 by harmonic (Laplace) interpolation from the
 /// measured cells; interpolated cells get support 0 and the median measured variance, doubled.
-void FillHoles(const Grid& grid, SurfaceMap& map);
+/// On a `stop` the holes are left unfinished; the caller checks the token.
+void FillHoles(const Grid& grid, SurfaceMap& map, const StopToken& stop = {});
 
 }  // namespace soilvol::volume

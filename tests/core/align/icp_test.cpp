@@ -8,6 +8,7 @@
 #include "core/cloud/local_surface.hpp"
 #include "core/cloud/voxel_grid.hpp"
 #include "tests/core/align/test_object.hpp"
+#include "tests/core/common/counting_stop.hpp"
 
 namespace soilvol::align {
 namespace {
@@ -104,6 +105,68 @@ TEST(IcpTest, ReturnsInTheContentColumnAreNotContainer) {
         Align(source.points, source.normals, scan, Pose::Identity(), AlignConfig{}, &column);
     EXPECT_LT(with.T_scan_container.translation().norm(), 0.003);
     EXPECT_GT(with.fitness, 0.8);
+}
+
+// The scan of a moved object and where ICP starts: the object's pose before the move.
+struct MovedObject {
+    Source source;
+    Cloud scan;
+    Pose truth;
+};
+MovedObject Moved() {
+    const Cloud object = Object();
+    std::mt19937 rng(11);
+    const Pose truth = RandomPose(5.0, 0.10, rng);
+    return {MakeSource(object), Transformed(object, truth, 0.005, 3), truth};
+}
+
+TEST(IcpTest, NeverStoppingTokenChangesNothing) {
+    const MovedObject moved = Moved();
+    const AlignResult plain = Align(moved.source.points, moved.source.normals, moved.scan,
+                                    Pose::Identity(), AlignConfig{});
+    const test::CountingStop never(0);
+    const AlignResult watched = Align(moved.source.points, moved.source.normals, moved.scan,
+                                      Pose::Identity(), AlignConfig{}, nullptr, never.token());
+    ASSERT_TRUE(plain.converged);
+    EXPECT_TRUE(watched.converged);
+    EXPECT_EQ(watched.iterations, plain.iterations);
+    // Threads add their partial sums in any order: equal to rounding.
+    EXPECT_LT((watched.T_scan_container.matrix() - plain.T_scan_container.matrix()).norm(), 1e-9);
+    EXPECT_GT(never.looks(), plain.iterations);
+}
+
+// Without smoothing, each stage looks twice while it prepares its target and once before each
+// iteration: a stop at the 5th look comes before the coarse stage's 3rd iteration. The pose
+// reached by then comes back, not converged and without the fit's figures.
+TEST(IcpTest, AStopEndsTheIterationsWithThePoseReached) {
+    const MovedObject moved = Moved();
+    AlignConfig config;
+    config.smoothing_radius_m = 0.0;
+    const AlignResult full =
+        Align(moved.source.points, moved.source.normals, moved.scan, Pose::Identity(), config);
+    ASSERT_TRUE(full.converged);
+    ASSERT_GT(full.iterations, 4);
+    const test::CountingStop cancel(5);
+    const AlignResult stopped = Align(moved.source.points, moved.source.normals, moved.scan,
+                                      Pose::Identity(), config, nullptr, cancel.token());
+    EXPECT_EQ(stopped.iterations, 2);
+    EXPECT_FALSE(stopped.converged);
+    EXPECT_EQ(stopped.correspondences, 0u);
+    const auto off = [&](const Pose& T) {
+        return (moved.truth.inverse() * T).translation().norm();
+    };
+    EXPECT_LT(off(stopped.T_scan_container), 0.5 * off(Pose::Identity()));
+    EXPECT_FALSE(CheckAlignment(stopped, AlignGate{}).ok());
+}
+
+TEST(IcpTest, AStopBeforeTheFirstIterationLeavesTheInitialPose) {
+    const MovedObject moved = Moved();
+    const AlignResult stopped =
+        Align(moved.source.points, moved.source.normals, moved.scan, Pose::Identity(),
+              AlignConfig{}, nullptr, StopToken(StopToken::Clock::now()));
+    EXPECT_EQ(stopped.iterations, 0);
+    EXPECT_FALSE(stopped.converged);
+    EXPECT_TRUE(stopped.T_scan_container.isApprox(Pose::Identity()));
 }
 
 TEST(IcpTest, EmptyInputsGiveAnUnconvergedResultThatTheGateRefuses) {

@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <random>
 
 #include "core/sim/scene.hpp"
+#include "tests/core/common/counting_stop.hpp"
 
 namespace soilvol::pipeline {
 namespace {
@@ -309,6 +311,65 @@ TEST(EstimatorTest, BoxWithoutASensorModelIsMeasuredAtEveryFill) {
         const double full = fill >= 0.5 ? 1.0 : 0.0;
         EXPECT_LT(error.translation().norm(), 0.003 + 0.012 * full) << "fill " << fill;
         EXPECT_NEAR(e->volume_m3, 1.2 * 0.8 * fill, (0.01 + 0.02 * full) * 0.48) << "fill " << fill;
+    }
+}
+
+// Stops: a model and a scan of the paper bucket, 40% full, the empty surface already cached.
+class EstimatorStopTest : public ::testing::Test {
+  protected:
+    static void SetUpTestSuite() {
+        model_ = new model::ContainerModel(Register(ContainerKind::kPaperBucket, 0.01));
+        scene_ = new sim::Scene(Scan(ContainerKind::kPaperBucket, 0.24, 0.01, 5));
+        const auto warm = EstimateVolume(*model_, scene_->points, EstimateConfig{});
+        ASSERT_TRUE(warm.ok()) << warm.status();
+        volume_m3_ = warm->volume_m3;
+    }
+    static void TearDownTestSuite() {
+        delete model_;
+        delete scene_;
+    }
+    static inline model::ContainerModel* model_ = nullptr;
+    static inline sim::Scene* scene_ = nullptr;
+    static inline double volume_m3_ = 0.0;
+};
+
+TEST_F(EstimatorStopTest, NeverStoppingTokenChangesNothing) {
+    const test::CountingStop never(0);
+    const auto e = EstimateVolume(*model_, scene_->points, EstimateConfig{}, never.token());
+    ASSERT_TRUE(e.ok()) << e.status();
+    // ICP's threads add their sums in any order: equal to rounding.
+    EXPECT_NEAR(e->volume_m3, volume_m3_, 1e-9);
+    EXPECT_GT(never.looks(), 10);
+}
+
+TEST_F(EstimatorStopTest, ExpiredDeadlineIsDeadlineExceeded) {
+    const StopToken expired(StopToken::Clock::now() - std::chrono::seconds(1));
+    const auto e = EstimateVolume(*model_, scene_->points, EstimateConfig{}, expired);
+    EXPECT_EQ(e.status().code(), absl::StatusCode::kDeadlineExceeded);
+    EXPECT_EQ(e.status().message(), "deadline expired during preprocessing");
+}
+
+// The third look falls in the outlier filter's loop: the call ends there, before alignment.
+TEST_F(EstimatorStopTest, CancelAtTheThirdLookEndsInPreprocessing) {
+    const test::CountingStop cancel(3);
+    const auto e = EstimateVolume(*model_, scene_->points, EstimateConfig{}, cancel.token());
+    EXPECT_EQ(e.status().code(), absl::StatusCode::kCancelled);
+    EXPECT_EQ(e.status().message(), "cancelled during preprocessing");
+    EXPECT_EQ(cancel.looks(), 3);
+}
+
+// Wherever the caller goes away, the estimate ends cancelled: never with a volume, nor with the
+// error a half-done stage would give (a gate refusing an alignment that was cut short).
+TEST_F(EstimatorStopTest, CancelAtAnyLookIsCancelled) {
+    const test::CountingStop never(0);
+    ASSERT_TRUE(EstimateVolume(*model_, scene_->points, EstimateConfig{}, never.token()).ok());
+    const long last = never.looks() - 2;  // ICP may take an iteration less another time
+    for (const long look : {1L, 2L, 5L, last / 64, last / 16, last / 4, last / 2, 3 * last / 4,
+                            last - 20, last - 2, last - 1, last}) {
+        const test::CountingStop cancel(look);
+        const auto e = EstimateVolume(*model_, scene_->points, EstimateConfig{}, cancel.token());
+        EXPECT_EQ(e.status().code(), absl::StatusCode::kCancelled)
+            << "look " << look << " of " << never.looks() << ": " << e.status();
     }
 }
 

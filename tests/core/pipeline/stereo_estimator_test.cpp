@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -10,6 +11,7 @@
 
 #include "core/sim/stereo_renderer.hpp"
 #include "core/stereo/image_codec.hpp"
+#include "tests/core/common/counting_stop.hpp"
 
 namespace soilvol::pipeline {
 namespace {
@@ -127,6 +129,44 @@ TEST_F(StereoEstimatorTest, FillsAreMeasuredFromRenderedPairs) {
         EXPECT_NEAR(e->estimate.volume_m3, pair.scene.true_volume_m3, 0.06 * struck)
             << "fill " << fill;
         EXPECT_FALSE(e->region.Empty());
+    }
+}
+
+// A stop anywhere in a stereo registration or estimate ends it with the stop's status; a token
+// that never stops changes nothing.
+TEST_F(StereoEstimatorTest, StopsEndStereoCallsWithTheirStatus) {
+    const StereoPair empty{empty_->left, empty_->right};
+    const auto model = BuildStereoContainerModel(*stereo_, empty, Clicked(2), model::ModelConfig{});
+    ASSERT_TRUE(model.ok()) << model.status();
+    const Pair pair = Render(0.3, 200);
+    const StereoPair full{pair.left, pair.right};
+    const auto plain = EstimateVolumeStereo(model->model, *stereo_, full, {});
+    const test::CountingStop never(0);
+    const auto watched = EstimateVolumeStereo(model->model, *stereo_, full, {}, never.token());
+    ASSERT_TRUE(plain.ok() && watched.ok());
+    EXPECT_NEAR(watched->estimate.volume_m3, plain->estimate.volume_m3, 1e-9);
+
+    const StopToken expired(StopToken::Clock::now() - std::chrono::seconds(1));
+    EXPECT_EQ(EstimateVolumeStereo(model->model, *stereo_, full, {}, expired).status().message(),
+              "deadline expired during image decoding");
+    EXPECT_EQ(
+        BuildStereoContainerModel(*stereo_, empty, Clicked(2), {}, {}, expired).status().code(),
+        absl::StatusCode::kDeadlineExceeded);
+    const long last = never.looks() - 2;  // ICP may take an iteration less another time
+    for (const long look : {1L, 3L, 4L, last / 4, last / 2, last}) {
+        const test::CountingStop cancel(look);
+        const auto e = EstimateVolumeStereo(model->model, *stereo_, full, {}, cancel.token());
+        EXPECT_EQ(e.status().code(), absl::StatusCode::kCancelled) << look << ": " << e.status();
+    }
+    const test::CountingStop never_model(0);
+    ASSERT_TRUE(
+        BuildStereoContainerModel(*stereo_, empty, Clicked(2), {}, {}, never_model.token()).ok());
+    const long last_model = never_model.looks();
+    for (const long look : {1L, 3L, 4L, last_model / 4, last_model / 2, last_model}) {
+        const test::CountingStop cancel(look);
+        const auto m =
+            BuildStereoContainerModel(*stereo_, empty, Clicked(2), {}, {}, cancel.token());
+        EXPECT_EQ(m.status().code(), absl::StatusCode::kCancelled) << look << ": " << m.status();
     }
 }
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -10,11 +11,13 @@
 #include <string>
 #include <vector>
 
+#include "tests/core/common/counting_stop.hpp"
 #include "tests/core/stereo/stereo_test_util.hpp"
 
 namespace soilvol::stereo {
 namespace {
 
+using soilvol::test::CountingStop;
 using test::HasError;
 using test::IsInvalidWith;
 
@@ -176,6 +179,70 @@ TEST_F(SamplePairsTest, WorseFitThanAllowedIsFailedPrecondition) {
     const auto result = CalibrateFromChessboards(pairs_, kBoard, config);
     EXPECT_TRUE(HasError(result.status(), absl::StatusCode::kFailedPrecondition,
                          "exceeds max_rms_px 0.05"));
+}
+
+// A token that can stop runs each board search on a thread of its own: while it never stops,
+// the calibration is the same to the last bit.
+TEST_F(SamplePairsTest, NeverStoppingTokenChangesNothing) {
+    const CountingStop never(0);
+    const auto result = CalibrateFromChessboards(pairs_, kBoard, {}, never.token());
+    ASSERT_TRUE(result.ok()) << result.status();
+    EXPECT_EQ(result->baseline_m, Calibration().baseline_m);
+    EXPECT_EQ(result->rms_reprojection_px, Calibration().rms_reprojection_px);
+    EXPECT_EQ(result->Q, Calibration().Q);
+    // Looks before and after each pair and before each of its two searches (more while a
+    // search runs longer than a poll), then one before each of the five stages after them.
+    EXPECT_GE(never.looks(), 4 * 13 + 5);
+}
+
+TEST_F(SamplePairsTest, ExpiredDeadlineIsDeadlineExceededBeforeTheFirstPair) {
+    const StopToken expired(StopToken::Clock::now() - std::chrono::seconds(1));
+    const auto result = CalibrateFromChessboards(pairs_, kBoard, {}, expired);
+    EXPECT_TRUE(HasError(result.status(), absl::StatusCode::kDeadlineExceeded,
+                         "deadline expired during chessboard detection (pair 1 of 13)"));
+}
+
+// The case: the caller goes away while the boards are searched; the call ends there
+// instead of searching the remaining pairs and fitting.
+TEST_F(SamplePairsTest, CancelAtTheThirdLookStopsInTheFirstPair) {
+    const CountingStop cancel(3);
+    const auto result = CalibrateFromChessboards(pairs_, kBoard, {}, cancel.token());
+    EXPECT_TRUE(HasError(result.status(), absl::StatusCode::kCancelled,
+                         "cancelled during chessboard detection (pair 1 of 13)"));
+    EXPECT_EQ(cancel.looks(), 3);
+}
+
+// Wherever the caller goes away (a search, a fit, rectification, the figures), the call ends
+// cancelled: never with a result, nor with an error a half-done stage would give. Searches
+// longer than a poll only add looks, so every look up to 4 x 13 + 5 is reached.
+TEST_F(SamplePairsTest, CancelAtAnyLookIsCancelled) {
+    for (const long look : {1L, 2L, 4L, 10L, 25L, 50L, 52L, 53L, 54L, 55L, 56L, 57L}) {
+        const CountingStop cancel(look);
+        const auto result = CalibrateFromChessboards(pairs_, kBoard, {}, cancel.token());
+        EXPECT_EQ(result.status().code(), absl::StatusCode::kCancelled)
+            << "look " << look << ": " << result.status();
+    }
+}
+
+// Pairs beyond max_fit_pairs are left out of the fits and judged against their result.
+TEST_F(SamplePairsTest, PairsBeyondTheFitLimitAreJudgedAgainstTheFit) {
+    CalibrationConfig config;
+    config.max_fit_pairs = 7;
+    const auto result = CalibrateFromChessboards(pairs_, kBoard, config);
+    ASSERT_TRUE(result.ok()) << result.status();
+    ASSERT_EQ(result->pairs.size(), 13u);
+    int fitted = 0;
+    for (const PairError& pair : result->pairs) {
+        fitted += pair.fitted;
+        EXPECT_GT(pair.rms_px, 0.0);
+        EXPECT_LT(pair.rms_px, 2.0 * kMaxRmsPx) << pair.index;
+        EXPECT_LT(pair.epipolar_px, kMaxRmsPx) << pair.index;
+    }
+    EXPECT_EQ(fitted, 7);
+    EXPECT_TRUE(result->pairs.front().fitted);  // spread evenly from the first
+    EXPECT_NEAR(result->baseline_m, kSampleBaselineSquares, kBaselineTolerance);
+    EXPECT_LE(result->rms_reprojection_px, kMaxRmsPx);
+    for (const PairError& pair : Calibration().pairs) EXPECT_TRUE(pair.fitted);
 }
 
 // A small BMP whose header declares `width` x `height` (BMP headers carry no checksum).
