@@ -106,6 +106,7 @@ int RunCalibrate(const CalibrateOptions& options, const GlobalOptions& global) {
         return ReportUsageError(status);
     }
     Connection connection(global);
+    if (!connection.ok()) return kExitUsage;
     v1::Calibration calibration;
     const auto context = connection.NewContext();
     const grpc::Status status = connection.Soil().Calibrate(context.get(), request, &calibration);

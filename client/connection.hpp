@@ -22,12 +22,23 @@ struct GlobalOptions {
     std::string server = "localhost:50051";  ///< host:port; env SOILVOL_SERVER
     bool json = false;                       ///< proto3 JSON instead of tables
     double timeout_s = 120.0;                ///< deadline of each RPC [s]
+    bool tls = false;                        ///< TLS with the system's roots (implied by tls_ca)
+    std::string tls_ca;                      ///< PEM roots that signed the server's certificate
+    std::string tls_client_cert;             ///< PEM chain for mTLS, with tls_client_key
+    std::string tls_client_key;
+    std::string tls_server_name;  ///< name checked in the certificate instead of the host's
+    std::string token_file;       ///< a file holding the bearer token (env SOILVOL_TOKEN_FILE)
+    std::string token;            ///< the bearer token itself (env SOILVOL_TOKEN)
 };
 
-/// An insecure channel to the server with both stubs; each call gets a fresh context.
+/// The channel to the server (TLS and client certificates when asked for) with both stubs;
+/// each call gets a fresh context carrying the bearer token.
 class Connection {
   public:
+    /// Reads the certificate and token files; a file that cannot be read is reported on stderr
+    /// and leaves the connection unusable (ok() false).
     explicit Connection(const GlobalOptions& options);
+    bool ok() const { return ok_; }
 
     v1::SoilVolume::Stub& Soil() { return *soil_; }
     grpc::health::v1::Health::Stub& Health() { return *health_; }
@@ -37,6 +48,8 @@ class Connection {
 
   private:
     double timeout_s_;
+    bool ok_ = true;
+    std::string authorization_;  ///< "Bearer <token>", or empty
     std::shared_ptr<grpc::Channel> channel_;
     std::unique_ptr<v1::SoilVolume::Stub> soil_;
     std::unique_ptr<grpc::health::v1::Health::Stub> health_;

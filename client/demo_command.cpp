@@ -48,6 +48,7 @@ class DemoRun {
     }
 
     int Run() {
+        if (!connection_.ok()) return kExitUsage;
         const bool calibrated = !options_.stereo || Calibrate();
         const bool registered = calibrated && Register();
         std::vector<DemoRow> rows;

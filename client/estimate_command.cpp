@@ -33,6 +33,7 @@ int RunEstimate(const EstimateOptions& options, bool has_cell, bool has_density,
     if (!scan.ok()) return ReportUsageError(scan.status());
     *request.mutable_scan() = *std::move(scan);
     Connection connection(global);
+    if (!connection.ok()) return kExitUsage;
     v1::EstimateVolumeResponse estimate;
     const auto context = connection.NewContext();
     const grpc::Status status = connection.Soil().EstimateVolume(context.get(), request, &estimate);

@@ -53,6 +53,7 @@ int RunRegister(const RegisterOptions& options, bool has_max_range, const Global
         return ReportUsageError(status);
     }
     Connection connection(global);
+    if (!connection.ok()) return kExitUsage;
     v1::Container container;
     const auto context = connection.NewContext();
     const grpc::Status status =

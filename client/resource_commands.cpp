@@ -12,6 +12,7 @@ enum class Action { kList, kGet, kDelete };
 
 int RunContainers(Action action, const std::string& id, const GlobalOptions& global) {
     Connection connection(global);
+    if (!connection.ok()) return kExitUsage;
     const auto context = connection.NewContext();
     grpc::Status status;
     if (action == Action::kList) {
@@ -37,6 +38,7 @@ int RunContainers(Action action, const std::string& id, const GlobalOptions& glo
 
 int RunCalibrations(Action action, const std::string& id, const GlobalOptions& global) {
     Connection connection(global);
+    if (!connection.ok()) return kExitUsage;
     const auto context = connection.NewContext();
     grpc::Status status;
     if (action == Action::kList) {

@@ -3,7 +3,7 @@
 file(GLOB_RECURSE core_files "${SOURCE_DIR}/*.hpp" "${SOURCE_DIR}/*.cpp")
 set(violations "")
 foreach(f IN LISTS core_files)
-    file(STRINGS "${f}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"](grpc|grpcpp|google/protobuf|httplib|soilvol/v1|prometheus)")
+    file(STRINGS "${f}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"](grpc|grpcpp|google/protobuf|httplib|boost/beast|boost/asio|openssl|soilvol/v1|prometheus)")
     if(lines)
         list(APPEND violations "${f}: ${lines}")
     endif()

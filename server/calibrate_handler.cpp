@@ -3,7 +3,6 @@
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
-#include "core/stereo/calibration_file.hpp"
 #include "google/protobuf/util/time_util.h"
 #include "server/proto_convert.hpp"
 #include "server/soilvol_handlers.hpp"
@@ -13,8 +12,8 @@
 namespace soilvol::server {
 namespace {
 
-absl::StatusOr<stereo::StereoCalibration> FromChessboards(
-    const v1::ChessboardCalibration& request) {
+absl::StatusOr<stereo::StereoCalibration> FromChessboards(const v1::ChessboardCalibration& request,
+                                                          const StopToken& stop) {
     SOILVOL_ASSIGN_OR_RETURN(const stereo::ChessboardSpec board, ToChessboardSpec(request));
     std::vector<stereo::ImagePair> pairs;
     pairs.reserve(static_cast<std::size_t>(request.pairs_size()));
@@ -27,7 +26,7 @@ absl::StatusOr<stereo::StereoCalibration> FromChessboards(
         pairs.push_back({pair.left(), pair.right()});
     }
     absl::StatusOr<stereo::StereoCalibration> calibration =
-        stereo::CalibrateFromChessboards(pairs, board);
+        stereo::CalibrateFromChessboards(pairs, board, {}, stop);
     if (!calibration.ok()) return Annotate(calibration.status(), "chessboard");
     return calibration;
 }
@@ -44,7 +43,7 @@ absl::Status SoilVolumeHandlers::Calibrate(const v1::CalibrateRequest& request,
     absl::StatusOr<stereo::StereoCalibration> calibration;
     switch (request.method_case()) {
         case v1::CalibrateRequest::kChessboard:
-            calibration = FromChessboards(request.chessboard());
+            calibration = FromChessboards(request.chessboard(), record.stop);
             break;
         case v1::CalibrateRequest::kParameters: {
             SOILVOL_ASSIGN_OR_RETURN(const StereoParameters parameters,
@@ -63,8 +62,9 @@ absl::Status SoilVolumeHandlers::Calibrate(const v1::CalibrateRequest& request,
     ToProto(*calibration, response);
     response->set_calibration_id(id);
     *response->mutable_create_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
-    return store_.Put(EntryKind::kCalibration, id,
-                      EncodeStoredRecord(*response, stereo::SerializeCalibration(*calibration)),
+    SOILVOL_RETURN_IF_ERROR(record.stop.Check("calibration, before storing it"));
+    // The message is the whole record: ToStereoCalibration rebuilds the rig from it.
+    return store_.Put(EntryKind::kCalibration, id, EncodeStoredRecord(*response, {}),
                       request.overwrite());
 }
 

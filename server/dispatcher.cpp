@@ -35,9 +35,24 @@ absl::Status ClientFacing(const absl::Status& status) {
 
 }  // namespace
 
-Dispatcher::Dispatcher(WorkerPool& pool, Metrics& metrics) : pool_(pool), metrics_(metrics) {}
+Dispatcher::Dispatcher(WorkerPool& pool, Metrics& metrics, const Authenticator& authenticator)
+    : pool_(pool), metrics_(metrics), authenticator_(authenticator) {}
+
+absl::Status Dispatcher::Authorize(CallContext& context) const {
+    absl::StatusOr<Scope> scope = RequiredScope(context.method);
+    if (!scope.ok()) return absl::InternalError(scope.status().message());
+    Principal who;
+    const absl::Status status =
+        authenticator_.Authorize(*scope, context.authorization, context.tls_identity, &who);
+    context.principal = who.name;
+    return status;
+}
 
 void Dispatcher::Submit(CallContext context, Work work, Done done) {
+    if (absl::Status allowed = Authorize(context); !allowed.ok()) {
+        Finish(context, CallRecord{}, allowed, done);
+        return;
+    }
     // The task owns everything it needs; whichever of run/reject fires consumes it.
     auto state = std::make_shared<std::tuple<CallContext, Work, Done>>(
         std::move(context), std::move(work), std::move(done));
@@ -46,12 +61,15 @@ void Dispatcher::Submit(CallContext context, Work work, Done done) {
         auto& [ctx, run_work, run_done] = *state;
         CallRecord record;
         record.queue_ms = MsSince(ctx.received);
+        record.stop = StopToken(ctx.deadline, [cancelled = ctx.cancelled, stop_all = stop_all_] {
+            return stop_all->load() || (cancelled && cancelled());
+        });
         absl::Status status;
         if (Clock::now() >= ctx.deadline) {
             status = absl::DeadlineExceededError(
                 absl::StrCat("deadline expired after ", static_cast<long long>(record.queue_ms),
                              " ms waiting for a worker"));
-        } else if (ctx.cancelled && ctx.cancelled()) {
+        } else if (record.stop.StopRequested()) {
             status = absl::CancelledError("the caller cancelled the call while it waited");
         } else {
             status = run_work(record);
@@ -100,6 +118,17 @@ void Dispatcher::Finish(const CallContext& context, const CallRecord& record,
               {"queue_ms", record.queue_ms},
               {"volume_m3", record.volume_m3.value_or(std::nan(""))},
               {"error", status.message()}});
+    // Who changed what, and how it ended: one line per call that needs the admin scope.
+    const absl::StatusOr<Scope> scope = RequiredScope(context.method);
+    if (scope.ok() && *scope == Scope::kAdmin) {
+        LogEvent(LogLevel::kInfo, "audit",
+                 {{"principal", context.principal.empty() ? "unauthenticated" : context.principal},
+                  {"method", context.method},
+                  {"transport", context.transport},
+                  {"peer", context.peer},
+                  {"ids", IdsText(record)},
+                  {"status", CodeName(status.code())}});
+    }
     done(ClientFacing(status));
 }
 

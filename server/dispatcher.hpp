@@ -1,13 +1,17 @@
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
+#include "core/common/stop_token.hpp"
+#include "server/authenticator.hpp"
 #include "server/metrics.hpp"
 #include "server/worker_pool.hpp"
 
@@ -20,33 +24,48 @@ struct CallContext {
     std::string method;     ///< RPC name: "EstimateVolume"
     std::string transport;  ///< "grpc" or "http"
     std::string peer;
+    std::string authorization;  ///< the Authorization header or metadata value, "" without
+    std::string tls_identity;   ///< a verified client certificate's subject, "" without
     Clock::time_point received = Clock::now();
     Clock::time_point deadline = Clock::time_point::max();
-    std::function<bool()> cancelled;  ///< may be empty
+    std::function<bool()> cancelled;  ///< may be empty; called from any thread
+    std::string principal;            ///< who called, set once the call is authorized
 };
 
 /// What a handler tells the request log and the metrics about its call.
 struct CallRecord {
-    double queue_ms = 0.0;                                 ///< set before the handler runs
+    double queue_ms = 0.0;  ///< set before the handler runs
+    /// Set before the handler runs: stops at the call's deadline, when its caller goes away
+    /// and when the server's shutdown grace is over. Nothing is stored once it stopped.
+    StopToken stop;
     std::vector<std::pair<std::string, std::string>> ids;  ///< ("container", "bucket-7"), ...
     std::optional<double> volume_m3;
     std::vector<std::pair<std::string, double>> stages_ms;  ///< ("align", 10.2), ...
 };
 
-/// Runs every RPC of both transports on the bounded worker pool, then logs one line and
-/// records the metrics for it.
+/// Runs every RPC of both transports on the bounded worker pool, then logs one line (and an
+/// audit line for every call that needs the admin scope) and records the metrics for it.
 class Dispatcher {
   public:
     using Work = std::function<absl::Status(CallRecord&)>;
     using Done = std::function<void(const absl::Status&)>;
 
-    Dispatcher(WorkerPool& pool, Metrics& metrics);
+    Dispatcher(WorkerPool& pool, Metrics& metrics, const Authenticator& authenticator);
 
-    /// Runs `work` on a worker, then `done` with its status on that worker. When the pool is
-    /// full or stopping, `done` gets RESOURCE_EXHAUSTED / UNAVAILABLE at once on this thread;
-    /// when the deadline passed or the caller went away while the call waited, `done` gets
-    /// DEADLINE_EXCEEDED / CANCELLED and `work` never runs.
+    /// Whether the caller may make the call (RequiredScope of its method): OK, or
+    /// UNAUTHENTICATED / PERMISSION_DENIED; context.principal names the caller when known.
+    /// Submit checks it; REST also asks before it reads a body.
+    absl::Status Authorize(CallContext& context) const;
+
+    /// Authorizes, then runs `work` on a worker and `done` with its status on that worker.
+    /// When the caller may not call, the pool is full or stopping, `done` gets
+    /// UNAUTHENTICATED / PERMISSION_DENIED / RESOURCE_EXHAUSTED / UNAVAILABLE at once on this
+    /// thread; when the deadline passed or the caller went away while the call waited, `done`
+    /// gets DEADLINE_EXCEEDED / CANCELLED and `work` never runs.
     void Submit(CallContext context, Work work, Done done);
+
+    /// From now on every call's stop token has stopped (the shutdown grace is over).
+    void StopAll() { stop_all_->store(true); }
 
     /// Logs and counts a call that failed before reaching the pool (a body that does not
     /// parse, an unknown route).
@@ -58,6 +77,8 @@ class Dispatcher {
 
     WorkerPool& pool_;
     Metrics& metrics_;
+    const Authenticator& authenticator_;
+    std::shared_ptr<std::atomic<bool>> stop_all_ = std::make_shared<std::atomic<bool>>(false);
 };
 
 }  // namespace soilvol::server

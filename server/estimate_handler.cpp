@@ -116,8 +116,9 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     if (scan.calibration != nullptr) {
         pipeline::StereoEstimateConfig stereo_config;
         stereo_config.estimate = config;
-        absl::StatusOr<pipeline::StereoEstimate> stereo = pipeline::EstimateVolumeStereo(
-            container->model, *scan.calibration->stereo, {scan.left, scan.right}, stereo_config);
+        absl::StatusOr<pipeline::StereoEstimate> stereo =
+            pipeline::EstimateVolumeStereo(container->model, *scan.calibration->stereo,
+                                           {scan.left, scan.right}, stereo_config, record.stop);
         if (!stereo.ok()) return stereo.status();
         timings->set_decode_ms(stereo->stereo.decode_ms);
         timings->set_rectify_ms(stereo->stereo.rectify_ms);
@@ -126,7 +127,7 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
         estimate = std::move(stereo->estimate);
     } else {
         timings->set_decode_ms(scan.decode_ms);
-        estimate = pipeline::EstimateVolume(container->model, scan.cloud, config);
+        estimate = pipeline::EstimateVolume(container->model, scan.cloud, config, record.stop);
     }
     if (!estimate.ok()) return estimate.status();
 

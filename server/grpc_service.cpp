@@ -76,7 +76,22 @@ CallContext GrpcCallContext(grpc::CallbackServerContext* context, const char* me
     if (left < std::chrono::hours(24)) {
         call.deadline = call.received + std::chrono::duration_cast<Clock::duration>(left);
     }
-    call.cancelled = [context] { return context->IsCancelled(); };
+    // gRPC also cancels a call at its deadline: that one is the deadline's (DEADLINE_EXCEEDED,
+    // from call.deadline), not a cancel by the client.
+    call.cancelled = [context] {
+        return context->IsCancelled() && std::chrono::system_clock::now() < context->deadline();
+    };
+    const auto& metadata = context->client_metadata();
+    if (auto found = metadata.find("authorization"); found != metadata.end()) {
+        call.authorization.assign(found->second.data(), found->second.size());
+    }
+    // The TLS layer verified the certificate (mTLS); its subject names the caller.
+    const std::shared_ptr<const grpc::AuthContext> auth = context->auth_context();
+    if (auth != nullptr && auth->IsPeerAuthenticated()) {
+        for (const grpc::string_ref& subject : auth->FindPropertyValues("x509_subject")) {
+            call.tls_identity.assign(subject.data(), subject.size());
+        }
+    }
     return call;
 }
 

@@ -1,103 +1,63 @@
 #include "server/http_gateway.hpp"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-
 #include <algorithm>
 #include <chrono>
-#include <future>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "google/protobuf/util/json_util.h"
-#include "httplib.h"
 #include "server/status_map.hpp"
 
 namespace soilvol::server {
 namespace {
 
 constexpr const char* kJson = "application/json";
+constexpr const char* kAllowHeaders =
+    "Authorization, Content-Type, Grpc-Timeout, X-Request-Id, traceparent";
+constexpr const char* kExposeHeaders = "Retry-After, X-Request-Id, WWW-Authenticate";
 
-void SendError(httplib::Response& response, const absl::Status& status, int http_status) {
-    response.status = http_status;
-    response.set_content(ErrorJson(status), kJson);
-}
+/// What one REST call carries to its worker: the request as read, the messages, the JSON out.
+struct RestCall {
+    const Rpc* rpc = nullptr;
+    const HttpRoute* route = nullptr;
+    std::map<std::string, std::string> path_fields;
+    HttpRequest request;
+    std::string json;
+};
 
-void SendError(httplib::Response& response, const absl::Status& status) {
-    SendError(response, status, HttpStatusFor(status.code()));
-}
-
-/// Sets a scalar field of `message` from a path or query value.
-absl::Status SetField(google::protobuf::Message* message, const std::string& name,
-                      const std::string& value) {
-    const google::protobuf::Descriptor* descriptor = message->GetDescriptor();
-    const google::protobuf::FieldDescriptor* field = descriptor->FindFieldByName(name);
-    if (field == nullptr) field = descriptor->FindFieldByCamelcaseName(name);
-    if (field == nullptr || field->is_repeated() ||
-        field->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) {
-        return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
+// The request message from the body, the path and the query; the handler; the answer as
+// JSON. Runs on a worker.
+absl::Status BindAndCall(RestCall& call, CallRecord& record) {
+    std::unique_ptr<google::protobuf::Message> message = call.rpc->new_request();
+    if (absl::Status bound = BindRequest(*call.route, call.path_fields, call.request.query,
+                                         call.request.body, message.get());
+        !bound.ok()) {
+        return bound;
     }
-    const google::protobuf::Reflection* reflection = message->GetReflection();
-    using F = google::protobuf::FieldDescriptor;
-    bool ok = true;
-    switch (field->cpp_type()) {
-        case F::CPPTYPE_STRING: {
-            if (reflection->HasField(*message, field) &&
-                reflection->GetString(*message, field) != value) {
-                return absl::InvalidArgumentError(absl::StrCat(
-                    field->name(), ": the body says '", reflection->GetString(*message, field),
-                    "' but the path says '", value, "'"));
-            }
-            reflection->SetString(message, field, value);
-            break;
-        }
-        case F::CPPTYPE_BOOL: {
-            ok = value == "true" || value == "false";
-            if (ok) reflection->SetBool(message, field, value == "true");
-            break;
-        }
-        case F::CPPTYPE_DOUBLE: {
-            double number = 0.0;
-            ok = absl::SimpleAtod(value, &number);
-            if (ok) reflection->SetDouble(message, field, number);
-            break;
-        }
-        case F::CPPTYPE_INT32: {
-            int number = 0;
-            ok = absl::SimpleAtoi(value, &number);
-            if (ok) reflection->SetInt32(message, field, number);
-            break;
-        }
-        default:
-            return absl::InvalidArgumentError(
-                absl::StrCat("parameter '", name, "' cannot be set from the URL"));
+    std::string().swap(call.request.body);  // its bytes are in the message now
+    std::unique_ptr<google::protobuf::Message> answer = call.rpc->new_response();
+    if (absl::Status status = call.rpc->call(*message, answer.get(), record); !status.ok()) {
+        return status;
     }
-    if (!ok) {
-        return absl::InvalidArgumentError(
-            absl::StrCat(field->name(), ": '", value, "' is not a valid value"));
+    google::protobuf::util::JsonPrintOptions options;
+    options.always_print_primitive_fields = true;
+    if (!google::protobuf::util::MessageToJsonString(*answer, &call.json, options).ok()) {
+        return absl::InternalError("response does not convert to JSON");
     }
     return absl::OkStatus();
 }
 
-// Debian's cpp-httplib is a compiled library built with a listen backlog of 5, so a burst of
-// new connections overflows the accept queue before the pool can answer 429. Linux lets a
-// listening socket's backlog be raised by calling listen() again: find ours by its port.
-void RaiseListenBacklog(int port) {
-    for (int fd = 0; fd < 4096; ++fd) {
-        int listening = 0;
-        socklen_t size = sizeof(listening);
-        if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &size) != 0 || !listening) {
-            continue;
-        }
-        sockaddr_storage address{};
-        socklen_t length = sizeof(address);
-        if (getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) continue;
-        const int bound = address.ss_family == AF_INET6
-                              ? ntohs(reinterpret_cast<sockaddr_in6*>(&address)->sin6_port)
-                              : ntohs(reinterpret_cast<sockaddr_in*>(&address)->sin_port);
-        if (bound == port) listen(fd, SOMAXCONN);
-    }
+HttpResponse JsonResponse(int status, std::string body) {
+    HttpResponse response;
+    response.status = status;
+    response.body = std::move(body);
+    return response;
+}
+
+bool HasBody(const HttpRequest& head) {
+    return head.chunked || head.content_length.value_or(0) > 0;
 }
 
 }  // namespace
@@ -153,274 +113,226 @@ HttpGateway::HttpGateway(HttpGatewayOptions options, std::map<std::string, Rpc> 
       routes_(std::move(routes)),
       dispatcher_(dispatcher),
       metrics_(metrics),
-      ready_(std::move(ready)),
-      server_(std::make_unique<httplib::Server>()) {}
+      ready_(std::move(ready)) {
+    server_ = std::make_unique<HttpServer>(
+        options_.server, [this](const HttpRequest& head) { return Admit(head); },
+        [this](HttpRequest request, std::shared_ptr<HttpExchange> exchange) {
+            Handle(std::move(request), std::move(exchange));
+        });
+    if (!options_.probe_address.empty()) {
+        HttpServerOptions probe;
+        probe.address = options_.probe_address;
+        probe.io_threads = 1;
+        probe.limits.max_connections = 64;
+        probe.limits.max_body_bytes = 0;
+        probe_ = std::make_unique<HttpServer>(
+            probe, [](const HttpRequest&) { return std::optional<HttpResponse>(); },
+            [this](HttpRequest request, std::shared_ptr<HttpExchange> exchange) {
+                if (!ServeOperational(request, true, *exchange)) {
+                    exchange->Respond(ErrorResponse(
+                        absl::NotFoundError("the probe listener serves /healthz, /readyz and "
+                                            "/metrics only"),
+                        ""));
+                }
+            });
+    }
+}
 
 HttpGateway::~HttpGateway() { Stop(); }
 
 absl::StatusOr<int> HttpGateway::Start() {
-    const std::size_t colon = options_.address.rfind(':');
-    std::string host = options_.address.substr(0, colon);
-    if (host.size() > 2 && host.front() == '[') host = host.substr(1, host.size() - 2);
-    int port = 0;
-    if (!absl::SimpleAtoi(options_.address.substr(colon + 1), &port)) {
-        return absl::InvalidArgumentError("--http-address: bad port");
+    absl::StatusOr<int> port = server_->Start();
+    if (!port.ok()) {
+        return absl::Status(port.status().code(),
+                            absl::StrCat("--http-address: ", port.status().message()));
     }
-    const int threads = options_.threads;
-    server_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-    server_->set_payload_max_length(options_.max_body_bytes);
-    server_->set_read_timeout(60, 0);
-    server_->set_write_timeout(60, 0);
-    const auto handler = [this](const httplib::Request& request, httplib::Response& response) {
-        Handle(request, {}, response);
-    };
-    // Bodies are read here, counted as they arrive whatever the transfer and content encoding
-    // (httplib bounds only a declared Content-Length, and inflates gzip without a bound).
-    const std::size_t limit = options_.max_body_bytes;
-    const auto with_body = [this, limit](const httplib::Request& request,
-                                         httplib::Response& response,
-                                         const httplib::ContentReader& reader) {
-        std::string body;
-        bool too_large = false;
-        const bool read = reader([&](const char* data, std::size_t length) {
-            if (length > limit - std::min(limit, body.size())) {
-                too_large = true;
-                return false;
-            }
-            body.append(data, length);
-            return true;
-        });
-        // httplib refuses a declared Content-Length past the limit before reading any of it.
-        std::uint64_t declared = 0;
-        too_large =
-            too_large || (!read && request.has_header("Content-Length") &&
-                          absl::SimpleAtoi(request.get_header_value("Content-Length"), &declared) &&
-                          declared > limit);
-        if (too_large) {
-            response.set_header("Connection", "close");
-            SendError(response,
-                      absl::ResourceExhaustedError(absl::StrCat(
-                          "request body exceeds the limit of ", options_.max_body_bytes, " bytes")),
-                      413);
-            return;
+    if (probe_ != nullptr) {
+        absl::StatusOr<int> probe_port = probe_->Start();
+        if (!probe_port.ok()) {
+            server_->Stop();
+            return absl::Status(probe_port.status().code(),
+                                absl::StrCat("--probe-address: ", probe_port.status().message()));
         }
-        if (!read) {
-            SendError(response, absl::InvalidArgumentError("request body: could not be read"));
-            return;
-        }
-        Handle(request, body, response);
-    };
-    // One router for every verb, so that unknown paths and verbs get JSON errors too.
-    server_->Get(".*", handler);
-    server_->Post(".*", with_body);
-    server_->Put(".*", with_body);
-    server_->Patch(".*", with_body);
-    server_->Delete(".*", with_body);
-    server_->Options(".*", handler);
-    // Errors httplib raises itself (413 for oversize bodies, 400 for bad requests) get the
-    // same JSON body as ours; ours already have one.
-    server_->set_error_handler([this](const httplib::Request& request,
-                                      httplib::Response& response) {
-        if (!response.body.empty()) return;
-        // httplib caps form-encoded bodies (curl -d's default type) at 8 KiB.
-        const bool form = request.get_header_value("Content-Type")
-                              .rfind("application/x-www-form-urlencoded", 0) == 0;
-        const absl::Status status =
-            response.status != 413
-                ? absl::InvalidArgumentError(absl::StrCat("HTTP ", response.status))
-            : form ? absl::ResourceExhaustedError(
-                         "a form-encoded body is limited to 8 KiB: send the JSON with "
-                         "Content-Type: application/json")
-                   : absl::ResourceExhaustedError(absl::StrCat("request body exceeds the limit of ",
-                                                               options_.max_body_bytes, " bytes"));
-        response.set_content(ErrorJson(status), kJson);
-    });
-    server_->set_exception_handler(
-        [](const httplib::Request&, httplib::Response& response, std::exception_ptr) {
-            SendError(response, absl::InternalError("unexpected error in the HTTP gateway"));
-        });
-    const int bound = port == 0 ? server_->bind_to_any_port(host)
-                                : (server_->bind_to_port(host, port) ? port : -1);
-    if (bound < 0) {
-        return absl::UnavailableError(
-            absl::StrCat("--http-address: cannot listen on ", options_.address));
+        probe_port_ = *probe_port;
     }
-    RaiseListenBacklog(bound);
-    thread_ = std::thread([this] { server_->listen_after_bind(); });
-    return bound;
+    return port;
 }
 
 void HttpGateway::Stop() {
-    if (!thread_.joinable()) return;
-    server_->stop();
-    thread_.join();
+    if (probe_ != nullptr) probe_->Stop();
+    server_->Stop();
 }
 
-bool HttpGateway::ApplyCors(const httplib::Request& request, httplib::Response& response) const {
-    const std::string origin = request.get_header_value("Origin");
+bool HttpGateway::ApplyCors(const std::string& origin, HttpHeaders& headers) const {
     if (origin.empty()) return false;
-    const bool any = std::find(options_.cors_origins.begin(), options_.cors_origins.end(), "*") !=
-                     options_.cors_origins.end();
-    if (!any && std::find(options_.cors_origins.begin(), options_.cors_origins.end(), origin) ==
-                    options_.cors_origins.end()) {
-        return false;
-    }
-    response.set_header("Access-Control-Allow-Origin", any ? "*" : origin);
-    response.set_header("Vary", "Origin");
-    response.set_header("Access-Control-Allow-Methods", "GET, POST, DELETE, OPTIONS");
-    response.set_header("Access-Control-Allow-Headers", "Content-Type, Grpc-Timeout");
-    response.set_header("Access-Control-Max-Age", "600");
+    const auto& allowed = options_.cors_origins;
+    const bool any = std::find(allowed.begin(), allowed.end(), "*") != allowed.end();
+    if (!any && std::find(allowed.begin(), allowed.end(), origin) == allowed.end()) return false;
+    headers.Set("Access-Control-Allow-Origin", any ? "*" : origin);
+    headers.Set("Vary", "Origin");
+    headers.Set("Access-Control-Allow-Methods", "GET, POST, PUT, PATCH, DELETE, OPTIONS");
+    headers.Set("Access-Control-Allow-Headers", kAllowHeaders);
+    headers.Set("Access-Control-Expose-Headers", kExposeHeaders);
+    headers.Set("Access-Control-Max-Age", "600");
     return true;
 }
 
-void HttpGateway::Handle(const httplib::Request& request, const std::string& body,
-                         httplib::Response& response) {
-    const bool cors = ApplyCors(request, response);
-    if (request.method == "OPTIONS") {
-        response.status = cors ? 204 : 403;
-        if (!cors) SendError(response, absl::PermissionDeniedError("origin not allowed"), 403);
-        return;
-    }
-    // A browser sends a simple cross-origin request (text/plain POST) without asking first: one
-    // from an origin not allowed is refused before it runs, and bodies must be JSON, which no
-    // page can send cross-origin without the preflight above.
-    // A page the server itself serves is same-origin: its Origin names this host.
-    const std::string origin = request.get_header_value("Origin");
-    const std::string host = request.get_header_value("Host");
-    const bool same_origin =
-        !host.empty() && (origin == "http://" + host || origin == "https://" + host);
-    if (!origin.empty() && !cors && !same_origin) {
-        SendError(response,
-                  absl::PermissionDeniedError(absl::StrCat(
-                      "origin '", request.get_header_value("Origin"), "' is not allowed")),
-                  403);
-        return;
-    }
-    if (!body.empty() &&
-        request.get_header_value("Content-Type").rfind("application/json", 0) != 0) {
-        SendError(response,
-                  absl::InvalidArgumentError("Content-Type: request bodies must be "
-                                             "application/json"),
-                  415);
-        return;
-    }
-    if (request.method == "GET" && request.path == "/healthz") {
-        response.set_content(
-            shutting_down_ ? R"({"status":"SHUTTING_DOWN"})" : R"({"status":"SERVING"})", kJson);
-        response.status = shutting_down_ ? 503 : 200;
-        return;
-    }
-    if (request.method == "GET" && request.path == "/readyz") {
-        const bool ready = !shutting_down_ && ready_();
-        response.status = ready ? 200 : 503;
-        response.set_content(ready ? R"({"status":"SERVING"})" : R"({"status":"NOT_SERVING"})",
-                             kJson);
-        return;
-    }
-    if (request.method == "GET" && request.path == "/metrics") {
-        response.set_content(metrics_.Serialize(), "text/plain; version=0.0.4");
-        return;
-    }
-    CallContext call;
-    call.transport = "http";
-    call.peer = absl::StrCat(request.remote_addr, ":", request.remote_port);
-    absl::StatusOr<RouteMatch> match = MatchRoute(routes_, request.method, request.path);
-    if (!match.ok()) {
-        // One label for every path no route serves: metrics stay bounded whatever is asked.
-        call.method = "unmatched";
-        dispatcher_.Refuse(call, match.status());
-        // A wrong verb on a served path is HTTP's 405; anything else keeps its code's status.
-        const bool not_allowed = absl::IsUnimplemented(match.status());
-        if (not_allowed) {
-            SendError(response, match.status(), 405);
-        } else {
-            SendError(response, match.status());
-        }
-        return;
-    }
-    call.method = match->route->method;
-    ServeRpc(*match, request, body, response, std::move(call));
+// A browser sends a simple cross-origin request (a text/plain POST) without asking first: one
+// from an origin not allowed is refused before it runs. A page the server itself serves is
+// same-origin: its Origin names this host.
+bool HttpGateway::OriginRefused(const HttpRequest& request) const {
+    const std::string& origin = request.headers.Get("Origin");
+    if (origin.empty()) return false;
+    HttpHeaders ignored;
+    if (ApplyCors(origin, ignored)) return false;
+    const std::string& host = request.headers.Get("Host");
+    return host.empty() || (origin != "http://" + host && origin != "https://" + host);
 }
 
-void HttpGateway::ServeRpc(const RouteMatch& match, const httplib::Request& request,
-                           const std::string& body, httplib::Response& response, CallContext call) {
-    const Rpc& rpc = rpcs_.at(match.route->method);
-    std::shared_ptr<google::protobuf::Message> message = rpc.new_request();
-    std::shared_ptr<google::protobuf::Message> answer = rpc.new_response();
-    absl::Status parsed;
-    if (match.route->body == "*" && !body.empty()) {
-        google::protobuf::util::JsonParseOptions options;
-        options.ignore_unknown_fields = false;
-        const auto status =
-            google::protobuf::util::JsonStringToMessage(body, message.get(), options);
-        if (!status.ok()) {
-            parsed = absl::InvalidArgumentError(
-                absl::StrCat("request body: ", std::string(status.message())));
+HttpResponse HttpGateway::ErrorResponse(const absl::Status& status, const std::string& origin,
+                                        int http_status) const {
+    HttpResponse response = JsonResponse(
+        http_status > 0 ? http_status : HttpStatusFor(status.code()), ErrorJson(status));
+    ApplyCors(origin, response.headers);
+    if (status.code() == absl::StatusCode::kUnauthenticated) {
+        response.headers.Set("WWW-Authenticate", R"(Bearer realm="soilvol")");
+    } else if (status.code() == absl::StatusCode::kPermissionDenied) {
+        response.headers.Set("WWW-Authenticate",
+                             R"(Bearer realm="soilvol", error="insufficient_scope")");
+    } else if (status.code() == absl::StatusCode::kResourceExhausted ||
+               status.code() == absl::StatusCode::kUnavailable) {
+        response.headers.Set("Retry-After", "1");
+    }
+    if (shutting_down_) response.headers.Set("Connection", "close");
+    return response;
+}
+
+CallContext HttpGateway::ContextOf(const HttpRequest& request, const std::string& method) const {
+    CallContext call;
+    call.method = method;
+    call.transport = "http";
+    call.peer = request.peer;
+    call.authorization = request.headers.Get("Authorization");
+    call.tls_identity = request.tls_identity;
+    return call;
+}
+
+std::optional<HttpResponse> HttpGateway::Admit(const HttpRequest& head) const {
+    const std::string& origin = head.headers.Get("Origin");
+    if (OriginRefused(head)) {
+        return ErrorResponse(
+            absl::PermissionDeniedError(absl::StrCat("origin '", origin, "' is not allowed")),
+            origin);
+    }
+    if (head.method == "OPTIONS" || head.path == "/healthz" || head.path == "/readyz" ||
+        head.path == "/metrics") {
+        return std::nullopt;
+    }
+    absl::StatusOr<RouteMatch> match = MatchRoute(routes_, head.method, head.path);
+    if (!match.ok()) {
+        // One label for every path no route serves: metrics stay bounded whatever is asked.
+        CallContext call = ContextOf(head, "unmatched");
+        dispatcher_.Refuse(call, match.status());
+        // A wrong verb on a served path is HTTP's 405; anything else keeps its code's status.
+        return ErrorResponse(match.status(), origin,
+                             absl::IsUnimplemented(match.status()) ? 405 : 0);
+    }
+    if (HasBody(head) && !absl::StartsWith(head.headers.Get("Content-Type"), kJson)) {
+        return ErrorResponse(
+            absl::InvalidArgumentError("Content-Type: request bodies must be application/json"),
+            origin, 415);
+    }
+    const std::string& encoding = head.headers.Get("Content-Encoding");
+    if (!encoding.empty() && !absl::EqualsIgnoreCase(encoding, "identity")) {
+        return ErrorResponse(
+            absl::InvalidArgumentError(absl::StrCat("Content-Encoding: '", encoding,
+                                                    "' is not accepted; send the "
+                                                    "body uncompressed")),
+            origin, 415);
+    }
+    CallContext call = ContextOf(head, match->route->method);
+    if (absl::Status allowed = dispatcher_.Authorize(call); !allowed.ok()) {
+        dispatcher_.Refuse(call, allowed);
+        return ErrorResponse(allowed, origin);
+    }
+    return std::nullopt;
+}
+
+bool HttpGateway::ServeOperational(const HttpRequest& request, bool probe,
+                                   HttpExchange& exchange) const {
+    if (request.method != "GET") return false;
+    if (request.path == "/healthz") {
+        exchange.Respond(JsonResponse(
+            shutting_down_ ? 503 : 200,
+            shutting_down_ ? R"({"status":"SHUTTING_DOWN"})" : R"({"status":"SERVING"})"));
+        return true;
+    }
+    if (request.path == "/readyz") {
+        const bool ready = !shutting_down_ && ready_();
+        exchange.Respond(JsonResponse(
+            ready ? 200 : 503, ready ? R"({"status":"SERVING"})" : R"({"status":"NOT_SERVING"})"));
+        return true;
+    }
+    if (request.path != "/metrics" || options_.metrics == MetricsAccess::kOff) return false;
+    if (!probe && options_.metrics == MetricsAccess::kAuthenticated) {
+        CallContext call = ContextOf(request, "ListContainers");  // the read scope
+        if (absl::Status allowed = dispatcher_.Authorize(call); !allowed.ok()) {
+            exchange.Respond(ErrorResponse(allowed, request.headers.Get("Origin")));
+            return true;
         }
     }
-    for (const auto& [field, value] : match.fields) {
-        if (!parsed.ok()) break;
-        parsed = SetField(message.get(), field, value);
+    HttpResponse response = JsonResponse(200, metrics_.Serialize());
+    response.content_type = "text/plain; version=0.0.4";
+    exchange.Respond(std::move(response));
+    return true;
+}
+
+void HttpGateway::Handle(HttpRequest request, std::shared_ptr<HttpExchange> exchange) {
+    const std::string origin = request.headers.Get("Origin");
+    if (request.method == "OPTIONS") {
+        HttpResponse response;
+        response.status = 204;
+        if (!ApplyCors(origin, response.headers)) {
+            response = ErrorResponse(absl::PermissionDeniedError("origin not allowed"), origin);
+        }
+        return exchange->Respond(std::move(response));
     }
-    // Query parameters from the request target itself: httplib also files form-encoded bodies
-    // under params, and a JSON body sent as a form must not be read as parameters.
-    const std::size_t query_at = request.target.find('?');
-    httplib::Params query;
-    if (query_at != std::string::npos) {
-        httplib::detail::parse_query_text(request.target.substr(query_at + 1), query);
-    }
-    for (const auto& [name, value] : query) {
-        if (!parsed.ok()) break;
-        parsed = match.route->body == "*"
-                     ? absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"))
-                     : SetField(message.get(), name, value);
-    }
-    double timeout_ms = -1.0;
-    if (parsed.ok() && request.has_header("Grpc-Timeout")) {
-        absl::StatusOr<double> timeout = ParseGrpcTimeout(request.get_header_value("Grpc-Timeout"));
-        parsed = timeout.status();
-        if (timeout.ok()) timeout_ms = *timeout;
-    }
-    if (!parsed.ok()) {
-        dispatcher_.Refuse(call, parsed);
-        SendError(response, parsed);
-        return;
-    }
-    if (timeout_ms >= 0.0) {
+    if (ServeOperational(request, false, *exchange)) return;
+    absl::StatusOr<RouteMatch> match = MatchRoute(routes_, request.method, request.path);
+    if (!match.ok()) return exchange->Respond(ErrorResponse(match.status(), origin));
+    ServeRpc(*match, std::move(request), std::move(exchange));
+}
+
+void HttpGateway::ServeRpc(const RouteMatch& match, HttpRequest request,
+                           std::shared_ptr<HttpExchange> exchange) {
+    const std::string origin = request.headers.Get("Origin");
+    CallContext call = ContextOf(request, match.route->method);
+    if (request.headers.Has("Grpc-Timeout")) {
+        absl::StatusOr<double> ms = ParseGrpcTimeout(request.headers.Get("Grpc-Timeout"));
+        if (!ms.ok()) {
+            dispatcher_.Refuse(call, ms.status());
+            return exchange->Respond(ErrorResponse(ms.status(), origin));
+        }
         call.deadline = call.received + std::chrono::duration_cast<Clock::duration>(
-                                            std::chrono::duration<double, std::milli>(timeout_ms));
+                                            std::chrono::duration<double, std::milli>(*ms));
+        // The caller hears of its deadline on time even when its call still waits for a worker.
+        exchange->RespondBy(
+            call.deadline + std::chrono::milliseconds(50),
+            ErrorResponse(absl::DeadlineExceededError("deadline expired before an answer"),
+                          origin));
     }
-    auto abandoned = std::make_shared<std::atomic<bool>>(false);
-    call.cancelled = [abandoned] { return abandoned->load(); };
-    auto outcome = std::make_shared<std::promise<absl::Status>>();
-    std::future<absl::Status> done = outcome->get_future();
-    const Clock::time_point deadline = call.deadline;
+    call.cancelled = [exchange] { return exchange->Gone(); };
+    auto rest = std::make_shared<RestCall>(RestCall{
+        &rpcs_.at(match.route->method), match.route, match.fields, std::move(request), {}});
     dispatcher_.Submit(
-        std::move(call),
-        [&rpc, message, answer](CallRecord& record) {
-            return rpc.call(*message, answer.get(), record);
-        },
-        [outcome](const absl::Status& status) { outcome->set_value(status); });
-    if (deadline != Clock::time_point::max() &&
-        done.wait_until(deadline + std::chrono::milliseconds(50)) != std::future_status::ready) {
-        abandoned->store(true);
-        SendError(response, absl::DeadlineExceededError("deadline expired before an answer"));
-        return;
-    }
-    const absl::Status status = done.get();
-    if (!status.ok()) {
-        SendError(response, status);
-        return;
-    }
-    google::protobuf::util::JsonPrintOptions options;
-    options.always_print_primitive_fields = true;
-    std::string json;
-    const auto printed = google::protobuf::util::MessageToJsonString(*answer, &json, options);
-    if (!printed.ok()) {
-        SendError(response, absl::InternalError("response does not convert to JSON"));
-        return;
-    }
-    response.set_content(json, kJson);
+        std::move(call), [rest](CallRecord& record) { return BindAndCall(*rest, record); },
+        [this, rest, exchange, origin](const absl::Status& status) {
+            if (!status.ok()) return exchange->Respond(ErrorResponse(status, origin));
+            HttpResponse response = JsonResponse(200, std::move(rest->json));
+            ApplyCors(origin, response.headers);
+            if (shutting_down_) response.headers.Set("Connection", "close");
+            exchange->Respond(std::move(response));
+        });
 }
 
 }  // namespace soilvol::server

@@ -1,37 +1,39 @@
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "server/dispatcher.hpp"
 #include "server/http_routes.hpp"
+#include "server/http_server.hpp"
 #include "server/metrics.hpp"
 #include "server/rpc_table.hpp"
 
-namespace httplib {
-class Server;
-struct Request;
-struct Response;
-}  // namespace httplib
-
 namespace soilvol::server {
 
+/// Who may read /metrics.
+enum class MetricsAccess { kOpen, kAuthenticated, kOff };
+
 struct HttpGatewayOptions {
-    std::string address = "0.0.0.0:8080";   ///< host:port; port 0 picks a free one
-    std::size_t max_body_bytes = 0;         ///< larger bodies get 413
+    HttpServerOptions server;               ///< address, I/O threads, limits, TLS
     std::vector<std::string> cors_origins;  ///< allowed Origin values; "*" allows any
-    int threads = 8;
+    MetricsAccess metrics = MetricsAccess::kOpen;
+    /// Set: a second, plain-HTTP listener serving only /healthz, /readyz and (unless off)
+    /// /metrics, for kubelet probes and scrapers that present no certificate or token.
+    std::string probe_address;
 };
 
-/// The REST/JSON face of soilvol.v1.SoilVolume (cpp-httplib), routed from the proto's
-/// google.api.http annotations: JSON in (proto3 mapping, unknown fields refused), the same
-/// handlers as gRPC through the same Dispatcher, JSON out; errors as {code, message, details}.
-/// Also /healthz (live), /readyz (ready) and /metrics (Prometheus text).
+/// The REST/JSON face of soilvol.v1.SoilVolume, routed from the proto's google.api.http
+/// annotations: JSON in (proto3 mapping, unknown fields refused), the same handlers as gRPC
+/// through the same Dispatcher, JSON out; errors as {code, message, details}. Origin, content
+/// type, route and credentials are checked from the header, before a body is read. Also
+/// /healthz (live), /readyz (ready) and /metrics (Prometheus text).
 class HttpGateway {
   public:
     HttpGateway(HttpGatewayOptions options, std::map<std::string, Rpc> rpcs,
@@ -39,21 +41,32 @@ class HttpGateway {
                 std::function<bool()> ready);
     ~HttpGateway();
 
-    /// Binds and serves on a thread of its own. Unavailable when the address cannot be bound.
+    /// Binds and serves; the bound REST port. Unavailable when an address cannot be bound,
+    /// InvalidArgument for unusable TLS files.
     absl::StatusOr<int> Start();
-    /// Stops accepting and waits for the serving thread.
+    /// The probe listener's port, 0 when there is none.
+    int probe_port() const { return probe_port_; }
+    /// Stops accepting and closes the connections.
     void Stop();
-    /// From now on /readyz answers 503.
+    /// From now on /readyz answers 503 and responses close their connection.
     void BeginShutdown() { shutting_down_ = true; }
+    const HttpConnectionStats& stats() const { return server_->stats(); }
 
   private:
-    /// `body`: the request body as read within the limit (httplib's own request.body is not
-    /// used: it bounds neither chunked nor compressed bodies).
-    void Handle(const httplib::Request& request, const std::string& body,
-                httplib::Response& response);
-    void ServeRpc(const RouteMatch& match, const httplib::Request& request, const std::string& body,
-                  httplib::Response& response, CallContext call);
-    bool ApplyCors(const httplib::Request& request, httplib::Response& response) const;
+    std::optional<HttpResponse> Admit(const HttpRequest& head) const;
+    void Handle(HttpRequest request, std::shared_ptr<HttpExchange> exchange);
+    /// Health and metrics; false when `request` is not for them.
+    bool ServeOperational(const HttpRequest& request, bool probe, HttpExchange& exchange) const;
+    void ServeRpc(const RouteMatch& match, HttpRequest request,
+                  std::shared_ptr<HttpExchange> exchange);
+    /// The request's call as the dispatcher sees it (method, peer, credentials).
+    CallContext ContextOf(const HttpRequest& request, const std::string& method) const;
+    /// CORS headers for an allowed origin; false when the Origin is absent or not allowed.
+    bool ApplyCors(const std::string& origin, HttpHeaders& headers) const;
+    bool OriginRefused(const HttpRequest& request) const;
+    /// An error answer with the CORS headers of `origin` (and WWW-Authenticate for 401/403).
+    HttpResponse ErrorResponse(const absl::Status& status, const std::string& origin,
+                               int http_status = 0) const;
 
     HttpGatewayOptions options_;
     std::map<std::string, Rpc> rpcs_;
@@ -62,8 +75,9 @@ class HttpGateway {
     Metrics& metrics_;
     std::function<bool()> ready_;
     std::atomic<bool> shutting_down_{false};
-    std::unique_ptr<httplib::Server> server_;
-    std::thread thread_;
+    std::unique_ptr<HttpServer> server_;
+    std::unique_ptr<HttpServer> probe_;
+    int probe_port_ = 0;
 };
 
 /// A Grpc-Timeout header value ("10S", "500m", "2M", "1H", "250u", "100n") in milliseconds;

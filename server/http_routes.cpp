@@ -1,7 +1,11 @@
 #include "server/http_routes.hpp"
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "google/api/annotations.pb.h"
+#include "google/protobuf/util/json_util.h"
+#include "server/store/absl_view.hpp"
 
 namespace soilvol::server {
 namespace {
@@ -51,22 +55,75 @@ int HexValue(char c) {
     return -1;
 }
 
-absl::StatusOr<std::string> PercentDecode(const std::string& text) {
+absl::StatusOr<std::string> PercentDecode(std::string_view text, bool plus_is_space = false) {
     std::string out;
     for (std::size_t i = 0; i < text.size(); ++i) {
         if (text[i] != '%') {
-            out += text[i];
+            out += plus_is_space && text[i] == '+' ? ' ' : text[i];
             continue;
         }
         const int hi = i + 2 < text.size() ? HexValue(text[i + 1]) : -1;
         const int lo = i + 2 < text.size() ? HexValue(text[i + 2]) : -1;
         if (hi < 0 || lo < 0) {
-            return absl::InvalidArgumentError(absl::StrCat("bad percent-encoding in '", text, "'"));
+            return absl::InvalidArgumentError(
+                absl::StrCat("bad percent-encoding in '", AbslView(text.substr(0, 200)), "'"));
         }
         out += static_cast<char>(hi * 16 + lo);
         i += 2;
     }
     return out;
+}
+
+/// Sets a scalar field of `message` from a path or query value.
+absl::Status SetField(google::protobuf::Message* message, const std::string& name,
+                      const std::string& value) {
+    const google::protobuf::Descriptor* descriptor = message->GetDescriptor();
+    const google::protobuf::FieldDescriptor* field = descriptor->FindFieldByName(name);
+    if (field == nullptr) field = descriptor->FindFieldByCamelcaseName(name);
+    if (field == nullptr || field->is_repeated() ||
+        field->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) {
+        return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
+    }
+    const google::protobuf::Reflection* reflection = message->GetReflection();
+    using F = google::protobuf::FieldDescriptor;
+    bool ok = true;
+    switch (field->cpp_type()) {
+        case F::CPPTYPE_STRING: {
+            if (reflection->HasField(*message, field) &&
+                reflection->GetString(*message, field) != value) {
+                return absl::InvalidArgumentError(absl::StrCat(
+                    field->name(), ": the body says '", reflection->GetString(*message, field),
+                    "' but the path says '", value, "'"));
+            }
+            reflection->SetString(message, field, value);
+            break;
+        }
+        case F::CPPTYPE_BOOL: {
+            ok = value == "true" || value == "false";
+            if (ok) reflection->SetBool(message, field, value == "true");
+            break;
+        }
+        case F::CPPTYPE_DOUBLE: {
+            double number = 0.0;
+            ok = absl::SimpleAtod(value, &number);
+            if (ok) reflection->SetDouble(message, field, number);
+            break;
+        }
+        case F::CPPTYPE_INT32: {
+            int number = 0;
+            ok = absl::SimpleAtoi(value, &number);
+            if (ok) reflection->SetInt32(message, field, number);
+            break;
+        }
+        default:
+            return absl::InvalidArgumentError(
+                absl::StrCat("parameter '", name, "' cannot be set from the URL"));
+    }
+    if (!ok) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(field->name(), ": '", value, "' is not a valid value"));
+    }
+    return absl::OkStatus();
 }
 
 }  // namespace
@@ -127,6 +184,48 @@ absl::StatusOr<RouteMatch> MatchRoute(const std::vector<HttpRoute>& routes, cons
         return absl::UnimplementedError(absl::StrCat("method ", verb, " is not allowed on ", path));
     }
     return absl::NotFoundError(absl::StrCat("no route for ", verb, " ", path));
+}
+
+absl::StatusOr<std::vector<std::pair<std::string, std::string>>> ParseQuery(
+    std::string_view query) {
+    std::vector<std::pair<std::string, std::string>> pairs;
+    for (absl::string_view absl_part : absl::StrSplit(AbslView(query), '&', absl::SkipEmpty())) {
+        const std::string_view part(absl_part.data(), absl_part.size());
+        const std::size_t equals = part.find('=');
+        absl::StatusOr<std::string> name = PercentDecode(part.substr(0, equals), true);
+        if (!name.ok()) return name.status();
+        absl::StatusOr<std::string> value =
+            PercentDecode(equals == std::string_view::npos ? "" : part.substr(equals + 1), true);
+        if (!value.ok()) return value.status();
+        pairs.emplace_back(*std::move(name), *std::move(value));
+    }
+    return pairs;
+}
+
+absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std::string>& path,
+                         std::string_view query, const std::string& body,
+                         google::protobuf::Message* message) {
+    if (route.body == "*" && !body.empty()) {
+        google::protobuf::util::JsonParseOptions options;
+        options.ignore_unknown_fields = false;
+        const auto parsed = google::protobuf::util::JsonStringToMessage(body, message, options);
+        if (!parsed.ok()) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("request body: ", std::string(parsed.message())));
+        }
+    }
+    for (const auto& [field, value] : path) {
+        if (absl::Status status = SetField(message, field, value); !status.ok()) return status;
+    }
+    absl::StatusOr<std::vector<std::pair<std::string, std::string>>> parameters = ParseQuery(query);
+    if (!parameters.ok()) return parameters.status();
+    for (const auto& [name, value] : *parameters) {
+        if (route.body == "*") {
+            return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
+        }
+        if (absl::Status status = SetField(message, name, value); !status.ok()) return status;
+    }
+    return absl::OkStatus();
 }
 
 }  // namespace soilvol::server

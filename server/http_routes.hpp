@@ -4,10 +4,13 @@
 #include <optional>
 #include <regex>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "google/protobuf/descriptor.h"
+#include "google/protobuf/message.h"
 
 namespace soilvol::server {
 
@@ -37,5 +40,17 @@ absl::StatusOr<std::vector<HttpRoute>> RoutesFromAnnotations(
 /// value that is not valid percent-encoding.
 absl::StatusOr<RouteMatch> MatchRoute(const std::vector<HttpRoute>& routes, const std::string& verb,
                                       const std::string& path);
+
+/// Fills `message` (the route's request message) as grpc-gateway does: the body as proto3 JSON
+/// when the route takes one (body "*"; unknown fields refused), the path values, then the query
+/// parameters (scalar fields by proto or JSON name; none on a route that takes the body).
+/// InvalidArgument naming the field or parameter at fault.
+absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std::string>& path,
+                         std::string_view query, const std::string& body,
+                         google::protobuf::Message* message);
+
+/// The name=value pairs of a query string (after '?'), percent-decoded, '+' read as a space;
+/// a name without '=' has the value "". InvalidArgument for bad percent-encoding.
+absl::StatusOr<std::vector<std::pair<std::string, std::string>>> ParseQuery(std::string_view query);
 
 }  // namespace soilvol::server

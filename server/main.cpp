@@ -3,10 +3,12 @@
 #include <pthread.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <iostream>
 #include <thread>
 
 #include "CLI/CLI.hpp"
+#include "core/stereo/calibration.hpp"
 #include "server/cpu_budget.hpp"
 #include "server/logging.hpp"
 #include "server/options.hpp"
@@ -56,8 +58,54 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
                    "Seconds in-flight calls get to finish on SIGTERM")
         ->envname("SOILVOL_SHUTDOWN_GRACE_S")
         ->capture_default_str();
-    app.add_option("--http-threads", o.http_threads, "REST connections served at once")
+    app.add_option("--http-threads", o.http_threads,
+                   "REST I/O threads (0 = 2; they never wait for the engine)")
         ->envname("SOILVOL_HTTP_THREADS")
+        ->capture_default_str();
+    app.add_option("--http-max-connections", o.http_max_connections,
+                   "REST connections at once; more get 503 and are closed")
+        ->envname("SOILVOL_HTTP_MAX_CONNECTIONS")
+        ->capture_default_str();
+    app.add_option("--http-header-timeout-s", o.http_header_timeout_s,
+                   "Seconds from a request's first byte to the end of its header")
+        ->envname("SOILVOL_HTTP_HEADER_TIMEOUT_S")
+        ->capture_default_str();
+    app.add_option("--http-idle-timeout-s", o.http_idle_timeout_s,
+                   "Seconds a kept-alive REST connection may wait for its next request")
+        ->envname("SOILVOL_HTTP_IDLE_TIMEOUT_S")
+        ->capture_default_str();
+    app.add_option("--tls-cert", o.tls_cert,
+                   "PEM certificate chain: TLS on the gRPC and REST ports (reloaded on change)")
+        ->envname("SOILVOL_TLS_CERT");
+    app.add_option("--tls-key", o.tls_key, "PEM private key of --tls-cert")
+        ->envname("SOILVOL_TLS_KEY");
+    app.add_option("--tls-client-ca", o.tls_client_ca,
+                   "PEM CA bundle: clients must present a certificate it signed (mTLS)")
+        ->envname("SOILVOL_TLS_CLIENT_CA");
+    app.add_option("--auth-tokens-file", o.auth_tokens_file,
+                   "Hashed bearer tokens with scopes, one per line: <name> <scopes> sha256:<hex> "
+                   "(reloaded on change)")
+        ->envname("SOILVOL_AUTH_TOKENS_FILE");
+    app.add_flag("--allow-unauthenticated", o.allow_unauthenticated,
+                 "Serve beyond loopback without asking for credentials")
+        ->envname("SOILVOL_ALLOW_UNAUTHENTICATED");
+    app.add_option("--reflection", o.reflection, "gRPC server reflection (true or false)")
+        ->envname("SOILVOL_REFLECTION")
+        ->capture_default_str();
+    app.add_option("--metrics", o.metrics,
+                   "/metrics: open, auth (needs the read scope on the REST port) or off")
+        ->envname("SOILVOL_METRICS")
+        ->capture_default_str();
+    app.add_option("--probe-address", o.probe_address,
+                   "Plain-HTTP listener for /healthz, /readyz and /metrics (probes, scrapers)")
+        ->envname("SOILVOL_PROBE_ADDRESS");
+    app.add_option("--grpc-max-connection-age-s", o.grpc_max_connection_age_s,
+                   "gRPC connections get GOAWAY after this long, so clients rebalance (0 = never)")
+        ->envname("SOILVOL_GRPC_MAX_CONNECTION_AGE_S")
+        ->capture_default_str();
+    app.add_option("--grpc-max-connection-age-grace-s", o.grpc_max_connection_age_grace_s,
+                   "Seconds calls in flight get after that GOAWAY")
+        ->envname("SOILVOL_GRPC_MAX_CONNECTION_AGE_GRACE_S")
         ->capture_default_str();
     app.parse(argc, argv);
     return o;
@@ -100,6 +148,13 @@ int main(int argc, char** argv) {
         LogLevel::kInfo, "listening",
         {{"grpc_port", (*server)->grpc_port()},
          {"http_port", (*server)->http_port()},
+         {"probe_port", (*server)->probe_port()},
+         {"tls", resolved.tls_cert.empty()        ? "off"
+                 : resolved.tls_client_ca.empty() ? "on"
+                                                  : "mtls"},
+         {"auth", !resolved.auth_tokens_file.empty() ? "tokens"
+                  : !resolved.tls_client_ca.empty()  ? "client certificates"
+                                                     : "none"},
          {"grpc_address", resolved.grpc_address},
          {"http_address", resolved.http_address},
          {"data_dir", resolved.data_dir},
@@ -115,5 +170,12 @@ int main(int argc, char** argv) {
     });
     (*server)->Wait();
     waiter.join();
+    if (const int searches = soilvol::stereo::AbandonedBoardSearches(); searches > 0) {
+        // A stopped calibration's board search still runs in OpenCV: end without the static
+        // destructors it may still need.
+        LogEvent(LogLevel::kInfo, "exiting past abandoned board searches",
+                 {{"searches", searches}});
+        std::_Exit(0);
+    }
     return 0;
 }

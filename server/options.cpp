@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <utility>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -68,19 +69,69 @@ absl::Status ValidateOptions(const ServerOptions& o) {
         o.shutdown_grace_s > 3600.0) {
         return Invalid("shutdown-grace-s", "must be in [0, 3600]");
     }
-    if (o.http_threads < 0 || o.http_threads > 1024) {
-        return Invalid("http-threads", "must be in [0, 1024]");
+    if (o.http_threads < 0 || o.http_threads > 64) {
+        return Invalid("http-threads", "must be in [0, 64]");
+    }
+    if (o.http_max_connections < 1 || o.http_max_connections > 100000) {
+        return Invalid("http-max-connections", "must be in [1, 100000]");
+    }
+    for (const auto& [flag, seconds] :
+         {std::pair<const char*, double>{"http-header-timeout-s", o.http_header_timeout_s},
+          {"http-idle-timeout-s", o.http_idle_timeout_s}}) {
+        if (!std::isfinite(seconds) || seconds < 0.1 || seconds > 3600.0) {
+            return Invalid(flag, "must be in [0.1, 3600]");
+        }
+    }
+    for (const auto& [flag, seconds] :
+         {std::pair<const char*, double>{"grpc-max-connection-age-s", o.grpc_max_connection_age_s},
+          {"grpc-max-connection-age-grace-s", o.grpc_max_connection_age_grace_s}}) {
+        if (!std::isfinite(seconds) || seconds < 0.0 || seconds > 86400.0 * 365) {
+            return Invalid(flag, "must be in [0, 31536000]");
+        }
+    }
+    if (o.tls_cert.empty() != o.tls_key.empty()) {
+        return Invalid(o.tls_cert.empty() ? "tls-cert" : "tls-key",
+                       "--tls-cert and --tls-key go together");
+    }
+    if (!o.tls_client_ca.empty() && o.tls_cert.empty()) {
+        return Invalid("tls-client-ca", "needs --tls-cert and --tls-key (mTLS is TLS first)");
+    }
+    if (o.metrics != "open" && o.metrics != "auth" && o.metrics != "off") {
+        return Invalid("metrics", absl::StrCat("'", o.metrics, "' is not open, auth or off"));
+    }
+    if (!o.probe_address.empty()) {
+        if (absl::Status s = ValidateAddress(o.probe_address, "probe-address"); !s.ok()) return s;
+    }
+    // Secure by default: a listener others can reach asks for credentials, unless told not to.
+    const bool credentials = !o.auth_tokens_file.empty() || !o.tls_client_ca.empty();
+    if (!credentials && !o.allow_unauthenticated) {
+        for (const auto& [flag, address] :
+             {std::pair<const char*, const std::string&>{"grpc-address", o.grpc_address},
+              {"http-address", o.http_address}}) {
+            if (!IsLoopbackAddress(address)) {
+                return Invalid(flag,
+                               absl::StrCat(address,
+                                            " listens beyond this machine and no credentials are "
+                                            "asked for: give --auth-tokens-file (with --tls-cert "
+                                            "and --tls-key) or --tls-client-ca, or pass "
+                                            "--allow-unauthenticated to accept an open server"));
+            }
+        }
     }
     return absl::OkStatus();
+}
+
+bool IsLoopbackAddress(const std::string& address) {
+    std::string host = address.substr(0, address.rfind(':'));
+    if (host.size() > 2 && host.front() == '[') host = host.substr(1, host.size() - 2);
+    return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
 }
 
 ServerOptions ResolveOptions(ServerOptions options) {
     if (options.cpus == 0) options.cpus = AvailableCpus();
     if (options.workers == 0) options.workers = options.cpus;
     if (options.max_queue == 0) options.max_queue = 4 * options.workers;
-    if (options.http_threads == 0) {
-        options.http_threads = std::min(1024, 2 * (options.workers + options.max_queue) + 4);
-    }
+    if (options.http_threads == 0) options.http_threads = 2;
     return options;
 }
 

@@ -10,9 +10,11 @@ namespace soilvol::server {
 /// Everything soilvol-server can be told. main() fills it from flags and SOILVOL_* variables;
 /// Server::BuildAndStart validates it before anything starts.
 struct ServerOptions {
-    std::string grpc_address = "0.0.0.0:50051";  ///< host:port; port 0 picks a free one
-    std::string http_address = "0.0.0.0:8080";   ///< REST gateway, health and metrics
-    std::string data_dir = "./data";             ///< model store
+    /// host:port; port 0 picks a free one. Loopback by default: a server that listens beyond
+    /// this machine must be given credentials to ask for (or --allow-unauthenticated).
+    std::string grpc_address = "127.0.0.1:50051";
+    std::string http_address = "127.0.0.1:8080";  ///< REST gateway, health and metrics
+    std::string data_dir = "./data";              ///< model store
     int workers = 0;    ///< engine threads; 0 = one per CPU available (affinity, cgroup limit)
     int max_queue = 0;  ///< requests waiting for a worker; 0 = 4 x workers
     int max_message_mb = 64;  ///< largest gRPC message; REST bodies may be 4/3 larger (base64)
@@ -20,9 +22,24 @@ struct ServerOptions {
     std::string log_format = "text";        ///< text or json
     std::vector<std::string> cors_origins;  ///< allowed browser origins; "*" for any
     double shutdown_grace_s = 10.0;         ///< in-flight work gets this long on SIGTERM
-    /// REST connections served at once; 0 = 2 x (workers + max_queue) + 4, so that a full
-    /// pool is what refuses REST calls (429), not a connection backlog.
-    int http_threads = 0;
+    int http_threads = 0;            ///< REST I/O threads; 0 = 2 (they never wait for the engine)
+    int http_max_connections = 512;  ///< REST connections at once; more get 503 and close
+    double http_header_timeout_s = 10.0;  ///< from a request's first byte to its header's end
+    double http_idle_timeout_s = 60.0;    ///< keep-alive wait for the next request
+
+    // Security: TLS (both transports), credentials, what is open.
+    std::string tls_cert;          ///< PEM certificate chain; set with tls_key: TLS on both ports
+    std::string tls_key;           ///< PEM private key
+    std::string tls_client_ca;     ///< set: clients must present a certificate it signed (mTLS)
+    std::string auth_tokens_file;  ///< hashed bearer tokens with scopes (Authenticator)
+    /// Accept a listener beyond loopback with neither tokens nor client certificates.
+    bool allow_unauthenticated = false;
+    bool reflection = true;        ///< gRPC server reflection
+    std::string metrics = "open";  ///< /metrics: open, auth (the read scope) or off
+    /// Plain-HTTP listener for probes and scrapers (/healthz, /readyz, /metrics); "" = none.
+    std::string probe_address;
+    double grpc_max_connection_age_s = 1800.0;      ///< then GOAWAY, so clients rebalance; 0 = none
+    double grpc_max_connection_age_grace_s = 60.0;  ///< calls in flight get this long after
     /// Not a flag: the CPUs available (AvailableCpus), filled by ResolveOptions; each call's
     /// engine gets ThreadsPerCall(cpus, workers) threads.
     int cpus = 0;
@@ -33,6 +50,9 @@ absl::Status ValidateAddress(const std::string& address, const std::string& flag
 
 /// InvalidArgument naming the flag and the problem for the first bad option.
 absl::Status ValidateOptions(const ServerOptions& options);
+
+/// True for 127.0.0.0/8, ::1 and localhost: a listener only this machine reaches.
+bool IsLoopbackAddress(const std::string& address);
 
 /// Options with the automatic values (workers, max_queue, http_threads, cpus) made concrete.
 ServerOptions ResolveOptions(ServerOptions options);

@@ -128,6 +128,26 @@ void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto) {
     for (int i = 0; i < 3; ++i) proto->add_translation_m(parameters.t_right_left_m(i));
 }
 
+absl::StatusOr<stereo::StereoCalibration> ToStereoCalibration(const v1::Calibration& proto) {
+    absl::StatusOr<StereoParameters> parameters =
+        ToStereoParameters(proto.parameters(), "parameters");
+    if (!parameters.ok()) return parameters.status();
+    absl::StatusOr<stereo::StereoCalibration> calibration =
+        stereo::CalibrationFromParameters(*parameters);
+    if (!calibration.ok()) {  // the core names its field within the parameters
+        return absl::Status(calibration.status().code(),
+                            absl::StrCat("parameters.", calibration.status().message()));
+    }
+    calibration->source =
+        proto.source() == v1::CALIBRATION_SOURCE_CHESSBOARD ? "chessboard" : "parameters";
+    calibration->rms_reprojection_px = proto.rms_reprojection_error_px();
+    calibration->mean_epipolar_px = proto.mean_epipolar_error_px();
+    for (const v1::SkippedPair& skipped : proto.skipped_pairs()) {
+        calibration->skipped.push_back({skipped.index(), skipped.reason()});
+    }
+    return calibration;
+}
+
 void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto) {
     proto->set_source(calibration.source == "chessboard" ? v1::CALIBRATION_SOURCE_CHESSBOARD
                                                          : v1::CALIBRATION_SOURCE_PARAMETERS);

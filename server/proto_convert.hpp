@@ -20,6 +20,11 @@ absl::StatusOr<stereo::ChessboardSpec> ToChessboardSpec(const v1::ChessboardCali
 /// Exactly four 3D corners or four pixel corners; pixel corners only when `stereo_scan`.
 absl::StatusOr<pipeline::OpeningMarks> ToOpeningMarks(const v1::Opening& proto, bool stereo_scan);
 
+/// A stored calibration's rig, rebuilt from its message: the parameters rectified again
+/// (stereo::CalibrationFromParameters), the chessboard figures copied. InvalidArgument naming
+/// the field for parameters the core refuses.
+absl::StatusOr<stereo::StereoCalibration> ToStereoCalibration(const v1::Calibration& proto);
+
 /// Core -> proto.
 void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto);
 void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto);

@@ -78,7 +78,7 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
     absl::StatusOr<model::ContainerModel> model;
     if (scan.calibration != nullptr) {
         absl::StatusOr<pipeline::StereoModel> stereo = pipeline::BuildStereoContainerModel(
-            *scan.calibration->stereo, {scan.left, scan.right}, marks, config);
+            *scan.calibration->stereo, {scan.left, scan.right}, marks, config, {}, record.stop);
         if (!stereo.ok()) return stereo.status();
         record.stages_ms.push_back({"match", stereo->timings.match_ms});
         model = std::move(stereo->model);
@@ -91,7 +91,7 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
             std::vector<pipeline::EmptyScan> scans,
             DecodeEmptyScans(request, scan.cloud, registration.max_scans, record));
         auto registered =
-            pipeline::RegisterContainer(std::get<Corners>(marks), scans, registration);
+            pipeline::RegisterContainer(std::get<Corners>(marks), scans, registration, record.stop);
         if (!registered.ok()) return registered.status();
         model = std::move(registered->model);
         response->set_registered_from(v1::SCAN_KIND_CLOUD);
@@ -103,6 +103,7 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
     response->set_container_id(id);
     if (request.has_max_range_m()) response->set_max_range_m(request.max_range_m());
     *response->mutable_create_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
+    SOILVOL_RETURN_IF_ERROR(record.stop.Check("registration, before storing it"));
     return store_.Put(EntryKind::kContainer, id,
                       EncodeStoredRecord(*response, model::EncodeModel(*model)),
                       request.overwrite());

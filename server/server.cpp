@@ -1,5 +1,6 @@
 #include "server/server.hpp"
 
+#include <algorithm>
 #include <condition_variable>
 #include <mutex>
 
@@ -7,6 +8,10 @@
 #include "core/pipeline/parallelism.hpp"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/grpcpp.h"
+#include "grpcpp/security/server_credentials.h"
+#include "grpcpp/security/tls_certificate_provider.h"
+#include "grpcpp/security/tls_credentials_options.h"
+#include "server/authenticator.hpp"
 #include "server/cpu_budget.hpp"
 #include "server/dispatcher.hpp"
 #include "server/grpc_service.hpp"
@@ -23,6 +28,7 @@ namespace soilvol::server {
 
 struct Server::Parts {
     ServerOptions options;
+    std::unique_ptr<Authenticator> authenticator;
     std::unique_ptr<EntryStore> store;
     Metrics metrics;
     std::unique_ptr<WorkerPool> pool;
@@ -41,6 +47,74 @@ struct Server::Parts {
     bool stopped = false;
 };
 
+namespace {
+
+constexpr int kGrpcMaxStreamsPerConnection = 100;
+constexpr int kGrpcHandshakeTimeoutMs = 10'000;
+constexpr int kGrpcMinPingIntervalMs = 10'000;  // clients may ping every 10 s, also idle
+
+// TLS from the files, watched for changes (cert-manager rotates them in place), with client
+// certificates required and verified when a client CA is given; plaintext without files.
+std::shared_ptr<grpc::ServerCredentials> GrpcCredentials(const ServerOptions& o) {
+    if (o.tls_cert.empty()) return grpc::InsecureServerCredentials();
+    constexpr unsigned int kRefreshS = 10;
+    auto provider = o.tls_client_ca.empty()
+                        ? std::make_shared<grpc::experimental::FileWatcherCertificateProvider>(
+                              o.tls_key, o.tls_cert, kRefreshS)
+                        : std::make_shared<grpc::experimental::FileWatcherCertificateProvider>(
+                              o.tls_key, o.tls_cert, o.tls_client_ca, kRefreshS);
+    grpc::experimental::TlsServerCredentialsOptions options(provider);
+    options.watch_identity_key_cert_pairs();
+    if (!o.tls_client_ca.empty()) {
+        options.watch_root_certs();
+        options.set_cert_request_type(GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+    } else {
+        options.set_cert_request_type(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
+    }
+    return grpc::experimental::TlsServerCredentials(options);
+}
+
+// Connection limits: bounded streams per connection, a handshake that must finish, a maximum
+// age (GOAWAY, then a grace for the calls in flight) so clients rebalance behind a Service,
+// and keepalive pings permitted every 10 s even without calls.
+void ApplyConnectionLimits(const ServerOptions& o, grpc::ServerBuilder& builder) {
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, kGrpcMaxStreamsPerConnection);
+    builder.AddChannelArgument(GRPC_ARG_SERVER_HANDSHAKE_TIMEOUT_MS, kGrpcHandshakeTimeoutMs);
+    if (o.grpc_max_connection_age_s > 0.0) {
+        builder.AddChannelArgument(
+            GRPC_ARG_MAX_CONNECTION_AGE_MS,
+            static_cast<int>(std::min(o.grpc_max_connection_age_s, 2e6) * 1e3));
+        builder.AddChannelArgument(
+            GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
+            static_cast<int>(std::min(o.grpc_max_connection_age_grace_s, 2e6) * 1e3));
+    }
+    builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                               kGrpcMinPingIntervalMs);
+    builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+}
+
+// Debian's grpc++_reflection registers its plugin when the library loads; taking it out of
+// the builder's plugins is what turns reflection off.
+class WithoutReflection final : public grpc::ServerBuilderOption {
+  public:
+    void UpdateArguments(grpc::ChannelArguments*) override {}
+    void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+        plugins->erase(std::remove_if(plugins->begin(), plugins->end(),
+                                      [](const std::unique_ptr<grpc::ServerBuilderPlugin>& plugin) {
+                                          return plugin->name() == "proto_server_reflection";
+                                      }),
+                       plugins->end());
+    }
+};
+
+MetricsAccess MetricsAccessOf(const std::string& value) {
+    if (value == "off") return MetricsAccess::kOff;
+    if (value == "auth") return MetricsAccess::kAuthenticated;
+    return MetricsAccess::kOpen;
+}
+
+}  // namespace
+
 Server::Server(std::unique_ptr<Parts> parts) : parts_(std::move(parts)) {}
 
 Server::~Server() { Shutdown(); }
@@ -52,6 +126,21 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     p.options = ResolveOptions(raw);
     const ServerOptions& o = p.options;
 
+    if (!o.tls_cert.empty()) {
+        // Before anything listens: a bad file stops the start with its flag, path and reason.
+        if (absl::Status s = CheckTlsFiles({o.tls_cert, o.tls_key, o.tls_client_ca}); !s.ok()) {
+            return s;
+        }
+    }
+    absl::StatusOr<std::unique_ptr<Authenticator>> authenticator =
+        Authenticator::Create({o.auth_tokens_file, !o.tls_client_ca.empty()});
+    if (!authenticator.ok()) return authenticator.status();
+    p.authenticator = *std::move(authenticator);
+    if (!o.auth_tokens_file.empty() && o.tls_cert.empty() &&
+        !(IsLoopbackAddress(o.grpc_address) && IsLoopbackAddress(o.http_address))) {
+        LogEvent(LogLevel::kWarn, "bearer tokens travel in clear text: no --tls-cert given",
+                 {{"hint", "terminate TLS in front of the server, or give --tls-cert/--tls-key"}});
+    }
     absl::StatusOr<std::unique_ptr<EntryStore>> store = EntryStore::Open(o.data_dir);
     if (!store.ok()) return store.status();
     p.store = *std::move(store);
@@ -67,7 +156,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
         },
         [call_threads] { pipeline::SetCallThreads(call_threads); });
     p.metrics.SetWorkers(o.workers, o.max_queue);
-    p.dispatcher = std::make_unique<Dispatcher>(*p.pool, p.metrics);
+    p.dispatcher = std::make_unique<Dispatcher>(*p.pool, p.metrics, *p.authenticator);
     p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store);
     p.service = std::make_unique<SoilVolumeService>(*p.handlers, *p.dispatcher);
     SoilVolumeHandlers* handlers = p.handlers.get();
@@ -80,11 +169,23 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     absl::StatusOr<std::vector<HttpRoute>> routes = RoutesFromAnnotations(*api);
     if (!routes.ok()) return routes.status();
     HttpGatewayOptions http;
-    http.address = o.http_address;
+    http.server.address = o.http_address;
+    http.server.io_threads = o.http_threads;
     const std::size_t message_bytes = static_cast<std::size_t>(o.max_message_mb) << 20;
-    http.max_body_bytes = message_bytes / 3 * 4 + (1u << 20);  // base64 plus the JSON around it
+    HttpLimits& limits = http.server.limits;
+    limits.max_body_bytes = message_bytes / 3 * 4 + (1u << 20);  // base64 plus the JSON around it
+    // Bodies received or held at once: those the workers and the queue can take, and two more.
+    limits.max_inflight_body_bytes =
+        limits.max_body_bytes * static_cast<std::uint64_t>(o.workers + o.max_queue + 2);
+    limits.max_connections = static_cast<std::size_t>(o.http_max_connections);
+    limits.header_timeout =
+        std::chrono::milliseconds(static_cast<long long>(o.http_header_timeout_s * 1000.0));
+    limits.idle_timeout =
+        std::chrono::milliseconds(static_cast<long long>(o.http_idle_timeout_s * 1000.0));
+    http.server.tls = {o.tls_cert, o.tls_key, o.tls_client_ca};
     http.cors_origins = o.cors_origins;
-    http.threads = o.http_threads;
+    http.metrics = MetricsAccessOf(o.metrics);
+    http.probe_address = o.probe_address;
     HealthService* health = p.health.get();
     p.gateway = std::make_unique<HttpGateway>(
         http, MakeRpcTable(*p.handlers), *std::move(routes), *p.dispatcher, p.metrics, [health] {
@@ -93,7 +194,9 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
 
     grpc::reflection::InitProtoReflectionServerBuilderPlugin();
     grpc::ServerBuilder builder;
-    builder.AddListeningPort(o.grpc_address, grpc::InsecureServerCredentials(), &p.grpc_port);
+    if (!o.reflection) builder.SetOption(std::make_unique<WithoutReflection>());
+    builder.AddListeningPort(o.grpc_address, GrpcCredentials(o), &p.grpc_port);
+    ApplyConnectionLimits(o, builder);
     builder.SetMaxReceiveMessageSize(static_cast<int>(message_bytes));
     builder.SetMaxSendMessageSize(static_cast<int>(message_bytes));
     builder.RegisterService(p.service.get());
@@ -114,6 +217,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
 
 int Server::grpc_port() const { return parts_->grpc_port; }
 int Server::http_port() const { return parts_->http_port; }
+int Server::probe_port() const { return parts_->gateway->probe_port(); }
 
 void Server::Shutdown() {
     Parts& p = *parts_;
@@ -129,11 +233,18 @@ void Server::Shutdown() {
               {"queued", p.pool->queued()},
               {"running", p.pool->running()}});
     // Readiness first, so that load balancers stop sending; then no new calls; then the work
-    // in flight finishes (or is refused once the grace period is over).
+    // in flight finishes. Once the grace period is over, what still runs is stopped at its
+    // next check (StopToken) and what still waits is refused.
+    const auto wall_deadline = std::chrono::system_clock::now() + grace;
+    const auto deadline = Clock::now() + grace;
     p.health->BeginShutdown();
     p.gateway->BeginShutdown();
-    p.grpc_server->Shutdown(std::chrono::system_clock::now() + grace);
-    const bool drained = p.pool->Shutdown(grace);
+    p.grpc_server->Shutdown(wall_deadline);
+    const auto left = std::max(Clock::duration::zero(), deadline - Clock::now());
+    Dispatcher* dispatcher = p.dispatcher.get();
+    const bool drained =
+        p.pool->Shutdown(std::chrono::duration_cast<std::chrono::milliseconds>(left),
+                         [dispatcher] { dispatcher->StopAll(); });
     p.gateway->Stop();
     LogEvent(drained ? LogLevel::kInfo : LogLevel::kWarn, "stopped",
              {{"drained", drained ? "yes" : "no, queued calls were refused"}});

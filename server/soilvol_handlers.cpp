@@ -8,7 +8,7 @@
 #include "core/common/timer.hpp"
 #include "core/io/cloud_codec.hpp"
 #include "core/model/model_codec.hpp"
-#include "core/stereo/calibration_file.hpp"
+#include "server/proto_convert.hpp"
 #include "server/status_map.hpp"
 #include "server/store/entry_id.hpp"
 #include "server/stored_record.hpp"
@@ -48,13 +48,15 @@ SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store)
 absl::StatusOr<SoilVolumeHandlers::CalibrationEntry> SoilVolumeHandlers::DecodeCalibration(
     const StoredEntry& entry) {
     CalibrationEntry out;
-    std::string_view yaml;
-    SOILVOL_RETURN_IF_ERROR(DecodeStoredRecord(entry.payload, &out.info, &yaml));
+    // The message holds the whole rig; entries written before 0.2 also carry it as OpenCV YAML,
+    // which is no longer read (OpenCV's YAML parser hangs on some inputs).
+    std::string_view legacy_yaml;
+    SOILVOL_RETURN_IF_ERROR(DecodeStoredRecord(entry.payload, &out.info, &legacy_yaml));
     out.info.set_calibration_id(entry.id);
-    absl::StatusOr<stereo::StereoCalibration> calibration = stereo::ParseCalibration(yaml);
+    absl::StatusOr<stereo::StereoCalibration> calibration = ToStereoCalibration(out.info);
     if (!calibration.ok()) {
         return absl::DataLossError(
-            absl::StrCat("stored calibration does not parse: ", calibration.status().message()));
+            absl::StrCat("stored calibration is not usable: ", calibration.status().message()));
     }
     SOILVOL_ASSIGN_OR_RETURN(stereo::StereoReconstructor stereo,
                              stereo::StereoReconstructor::Create(*calibration, {}));

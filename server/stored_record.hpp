@@ -9,8 +9,9 @@
 namespace soilvol::server {
 
 /// The payload of a store entry: the API message describing it (Calibration or Container, so
-/// that get and list need no engine work) and the engine's own bytes (calibration YAML or
-/// binary container model). Layout: u32 little-endian info size, info, body.
+/// that get and list need no engine work) and the engine's own bytes (the binary container
+/// model; none for a calibration, whose message holds it all). Layout: u32 little-endian info
+/// size, info, body.
 std::string EncodeStoredRecord(const google::protobuf::Message& info, std::string_view body);
 
 /// Splits a payload written by EncodeStoredRecord. DataLoss when it does not parse; `body`

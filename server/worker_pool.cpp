@@ -53,17 +53,20 @@ void WorkerPool::Loop() {
     }
 }
 
-bool WorkerPool::Shutdown(std::chrono::milliseconds grace) {
+bool WorkerPool::Shutdown(std::chrono::milliseconds grace, const std::function<void()>& overrun) {
     std::deque<Task> rejected;
+    bool still_running = false;
     {
         std::unique_lock<std::mutex> lock(mutex_);
         if (threads_.empty()) return true;
         idle_.wait_for(lock, grace, [this] { return queue_.empty() && running_ == 0; });
         stopping_ = true;
         rejected.swap(queue_);
+        still_running = running_ > 0;
         NotifyLocked();
     }
     work_ready_.notify_all();
+    if (still_running && overrun) overrun();
     for (Task& task : rejected) task.reject();
     for (std::thread& thread : threads_) thread.join();
     threads_.clear();

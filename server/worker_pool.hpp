@@ -38,9 +38,9 @@ class WorkerPool {
     bool TrySubmit(Task& task);
 
     /// Stops accepting, lets queued and running tasks finish for up to `grace`, then rejects
-    /// what is still queued and joins the workers once the running tasks return. True when
-    /// nothing had to be rejected.
-    bool Shutdown(std::chrono::milliseconds grace);
+    /// what is still queued, calls `overrun` when tasks still run (to make them stop), and
+    /// joins the workers once the running tasks return. True when nothing had to be rejected.
+    bool Shutdown(std::chrono::milliseconds grace, const std::function<void()>& overrun = {});
 
     std::size_t queued() const;
     std::size_t running() const;

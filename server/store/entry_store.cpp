@@ -29,12 +29,6 @@ std::string Label(EntryKind kind, std::string_view id) {
 
 std::string IdField(EntryKind kind) { return absl::StrCat(AbslView(KindName(kind)), " id"); }
 
-FileStamp StampOf(const struct stat& st) {
-    return FileStamp{static_cast<uint64_t>(st.st_dev), static_cast<uint64_t>(st.st_ino),
-                     static_cast<uint64_t>(st.st_size),
-                     static_cast<int64_t>(st.st_mtim.tv_sec) * 1'000'000'000 + st.st_mtim.tv_nsec};
-}
-
 absl::Status PrepareFolder(const std::string& path) {
     if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST) {
         return absl::FailedPreconditionError(ErrnoStatus(errno, "cannot create", path).message());

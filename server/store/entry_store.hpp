@@ -12,23 +12,9 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "server/store/entry_file.hpp"
+#include "server/store/posix_io.hpp"
 
 namespace soilvol::server {
-
-/// Identity and version of an entry file, from one stat; equal stamps mean unchanged content.
-/// An overwrite publishes a new file, so the inode changes even within one mtime tick (only an
-/// equal-sized rewrite that reuses a just-freed inode within one tick would go unnoticed).
-struct FileStamp {
-    uint64_t device = 0;
-    uint64_t inode = 0;
-    uint64_t size = 0;     ///< [bytes] of the whole file
-    int64_t mtime_ns = 0;  ///< [ns] since the epoch
-
-    bool operator==(const FileStamp& o) const {
-        return device == o.device && inode == o.inode && size == o.size && mtime_ns == o.mtime_ns;
-    }
-    bool operator!=(const FileStamp& o) const { return !(*this == o); }
-};
 
 /// One entry as read: payload and the stamp of the file it came from.
 struct StoredEntry {

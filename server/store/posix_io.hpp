@@ -1,7 +1,9 @@
 #pragma once
 
+#include <sys/stat.h>
 #include <sys/types.h>
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -10,6 +12,27 @@
 #include "absl/status/status.h"
 
 namespace soilvol::server {
+
+/// Identity and version of a file, from one stat; equal stamps mean unchanged content.
+/// An overwrite publishes a new file, so the inode changes even within one mtime tick (only an
+/// equal-sized rewrite that reuses a just-freed inode within one tick would go unnoticed).
+struct FileStamp {
+    uint64_t device = 0;
+    uint64_t inode = 0;
+    uint64_t size = 0;     ///< [bytes] of the whole file
+    int64_t mtime_ns = 0;  ///< [ns] since the epoch
+
+    bool operator==(const FileStamp& o) const {
+        return device == o.device && inode == o.inode && size == o.size && mtime_ns == o.mtime_ns;
+    }
+    bool operator!=(const FileStamp& o) const { return !(*this == o); }
+};
+
+/// The stamp of `st`.
+FileStamp StampOf(const struct stat& st);
+/// The stamp of the file `path` leads to (symbolic links followed); all zero when it cannot be
+/// read.
+FileStamp StampOfPath(const std::string& path);
 
 /// Unavailable for conditions an operator can fix or that pass (full disk, read-only file
 /// system, I/O error, no descriptors), Internal otherwise; the message is

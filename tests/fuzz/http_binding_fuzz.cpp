@@ -1,8 +1,7 @@
 // libFuzzer: the REST binding's own parts on any request line and body: route matching with
-// percent-decoding of path values, then the body bound to the route's request message as
-// grpc-gateway does. The input is "VERB PATH\n" followed by the JSON body.
-#include <google/protobuf/util/json_util.h>
-
+// percent-decoding of path values, then the body, path values and query parameters bound to the
+// route's request message as grpc-gateway does (server::BindRequest). The input is
+// "VERB PATH[?QUERY]\n" followed by the JSON body.
 #include <cstdint>
 #include <cstdlib>
 #include <memory>
@@ -38,7 +37,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         return 0;
     }
     const std::string verb(input.substr(0, space));
-    const std::string path(input.substr(space + 1, line_end - space - 1));
+    const std::string target(input.substr(space + 1, line_end - space - 1));
+    const std::size_t question = target.find('?');
+    const std::string path = target.substr(0, question);
+    const std::string query = question == std::string::npos ? "" : target.substr(question + 1);
     const auto match = soilvol::server::MatchRoute(Routes(), verb, path);
     if (!match.ok()) return 0;
     if (match->route == nullptr) std::abort();
@@ -48,8 +50,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         google::protobuf::MessageFactory::generated_factory()
             ->GetPrototype(method->input_type())
             ->New());
-    google::protobuf::util::JsonParseOptions options;
     const std::string body(input.substr(line_end + 1));
-    (void)google::protobuf::util::JsonStringToMessage(body, request.get(), options);
+    const absl::Status bound =
+        soilvol::server::BindRequest(*match->route, match->fields, query, body, request.get());
+    // A bound request keeps every path value it was given.
+    for (const auto& [field, value] : match->fields) {
+        const auto* descriptor = request->GetDescriptor()->FindFieldByName(field);
+        if (bound.ok() && (descriptor == nullptr ||
+                           request->GetReflection()->GetString(*request, descriptor) != value)) {
+            std::abort();
+        }
+    }
     return 0;
 }

@@ -1,6 +1,6 @@
 // Writes the seed inputs that come from soilvol's own encoders into <dir>/<target>/: a stored
-// model, a stored calibration and PCD/PLY clouds in every encoding. scripts/fuzz.sh adds them
-// to the committed hand-made seeds in tests/fuzz/corpus/ before each run.
+// model and PCD/PLY clouds in every encoding (the stored calibration record's seed is committed).
+// scripts/fuzz.sh adds them to the committed hand-made seeds in tests/fuzz/corpus/ before each run.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -11,8 +11,6 @@
 
 #include "core/io/cloud_codec.hpp"
 #include "core/model/model_codec.hpp"
-#include "core/stereo/calibration.hpp"
-#include "core/stereo/calibration_file.hpp"
 
 namespace {
 
@@ -93,19 +91,6 @@ int main(int argc, char** argv) {
     Write(root / "fuzz_model_codec", "file", std::string(1, '\0') + model);
     Write(root / "fuzz_model_codec", "payload",
           std::string(1, '\x01') + model.substr(24, model.size() - 24 - 8));
-    soilvol::StereoParameters rig;
-    rig.image_width = 640;
-    rig.image_height = 480;
-    rig.left = {500.0, 500.0, 320.0, 240.0, {0.01, -0.02, 0.0, 0.0, 0.0}};
-    rig.right = rig.left;
-    rig.t_right_left_m = Eigen::Vector3d(-0.1, 0.0, 0.0);
-    const auto calibration = soilvol::stereo::CalibrationFromParameters(rig);
-    if (!calibration.ok()) {
-        std::fprintf(stderr, "%s\n", std::string(calibration.status().message()).c_str());
-        return 1;
-    }
-    Write(root / "fuzz_calibration_file", "rig",
-          soilvol::stereo::SerializeCalibration(*calibration));
     // Images in each format whose header is read, grey and colour, 8 and 16 bits.
     cv::Mat grey(8, 8, CV_8UC1);
     for (int i = 0; i < 64; ++i) grey.at<uchar>(i / 8, i % 8) = static_cast<uchar>(4 * i);

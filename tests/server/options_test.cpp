@@ -29,6 +29,15 @@ TEST(ServerOptions, EachBadValueNamesItsFlag) {
         {"--cors-origin", [](ServerOptions& o) { o.cors_origins = {"dash.example"}; }},
         {"--shutdown-grace-s", [](ServerOptions& o) { o.shutdown_grace_s = -1.0; }},
         {"--http-threads", [](ServerOptions& o) { o.http_threads = -1; }},
+        {"--http-max-connections", [](ServerOptions& o) { o.http_max_connections = 0; }},
+        {"--http-header-timeout-s", [](ServerOptions& o) { o.http_header_timeout_s = 0.0; }},
+        {"--http-idle-timeout-s", [](ServerOptions& o) { o.http_idle_timeout_s = 1e9; }},
+        {"--tls-key", [](ServerOptions& o) { o.tls_cert = "cert.pem"; }},
+        {"--tls-cert", [](ServerOptions& o) { o.tls_key = "key.pem"; }},
+        {"--tls-client-ca", [](ServerOptions& o) { o.tls_client_ca = "ca.pem"; }},
+        {"--metrics", [](ServerOptions& o) { o.metrics = "public"; }},
+        {"--probe-address", [](ServerOptions& o) { o.probe_address = "8081"; }},
+        {"--grpc-max-connection-age-s", [](ServerOptions& o) { o.grpc_max_connection_age_s = -1; }},
     };
     for (const Case& c : cases) {
         ServerOptions options;
@@ -44,7 +53,42 @@ TEST(ServerOptions, IpV6AndPortZeroAreAccepted) {
     ServerOptions options;
     options.grpc_address = "[::1]:0";
     options.http_address = "[::]:8080";
+    options.allow_unauthenticated = true;
     EXPECT_TRUE(ValidateOptions(options).ok());
+}
+
+TEST(ServerOptions, ListeningBeyondLoopbackNeedsCredentialsOrConsent) {
+    ServerOptions open;
+    open.grpc_address = "0.0.0.0:50051";
+    const absl::Status refused = ValidateOptions(open);
+    EXPECT_TRUE(absl::IsInvalidArgument(refused));
+    EXPECT_NE(refused.message().find("--grpc-address"), absl::string_view::npos);
+    EXPECT_NE(refused.message().find("--allow-unauthenticated"), absl::string_view::npos);
+
+    ServerOptions consent = open;
+    consent.allow_unauthenticated = true;
+    EXPECT_TRUE(ValidateOptions(consent).ok());
+    ServerOptions tokens = open;
+    tokens.auth_tokens_file = "/etc/soilvol/tokens";
+    EXPECT_TRUE(ValidateOptions(tokens).ok());
+    ServerOptions mtls = open;
+    mtls.tls_cert = "tls.crt";
+    mtls.tls_key = "tls.key";
+    mtls.tls_client_ca = "ca.crt";
+    EXPECT_TRUE(ValidateOptions(mtls).ok());
+    ServerOptions tls_only = mtls;
+    tls_only.tls_client_ca.clear();
+    EXPECT_FALSE(ValidateOptions(tls_only).ok());  // TLS alone authenticates nobody
+}
+
+TEST(ServerOptions, LoopbackAddresses) {
+    for (const char* address : {"127.0.0.1:1", "127.9.9.9:80", "localhost:0", "[::1]:8080"}) {
+        EXPECT_TRUE(IsLoopbackAddress(address)) << address;
+    }
+    for (const char* address :
+         {"0.0.0.0:1", "[::]:80", "10.0.0.1:0", "soilvol:80", "128.0.0.1:1"}) {
+        EXPECT_FALSE(IsLoopbackAddress(address)) << address;
+    }
 }
 
 TEST(ServerOptions, ResolveFillsTheAutomaticValues) {
@@ -53,7 +97,7 @@ TEST(ServerOptions, ResolveFillsTheAutomaticValues) {
     const ServerOptions resolved = ResolveOptions(options);
     EXPECT_EQ(resolved.workers, 3);
     EXPECT_EQ(resolved.max_queue, 12);
-    EXPECT_EQ(resolved.http_threads, 2 * (3 + 12) + 4);
+    EXPECT_EQ(resolved.http_threads, 2);
     EXPECT_GE(resolved.cpus, 1);
     const ServerOptions automatic = ResolveOptions(ServerOptions{});
     EXPECT_EQ(automatic.workers, automatic.cpus);  // one worker per available CPU

@@ -38,6 +38,40 @@ TEST(ProtoConvert, StereoParametersRoundTrip) {
     EXPECT_EQ(back.SerializeAsString(), Rig().SerializeAsString());
 }
 
+TEST(ProtoConvert, StoredCalibrationRebuildsTheSameRig) {
+    const absl::StatusOr<StereoParameters> parameters = ToStereoParameters(Rig(), "parameters");
+    ASSERT_TRUE(parameters.ok());
+    absl::StatusOr<stereo::StereoCalibration> original =
+        stereo::CalibrationFromParameters(*parameters);
+    ASSERT_TRUE(original.ok()) << original.status();
+    original->source = "chessboard";
+    original->rms_reprojection_px = 0.31;
+    original->skipped.push_back({4, "left: chessboard 9x6 not found"});
+    v1::Calibration stored;
+    ToProto(*original, &stored);
+    v1::Calibration read;  // through the bytes, as the store keeps them
+    ASSERT_TRUE(read.ParseFromString(stored.SerializeAsString()));
+    const absl::StatusOr<stereo::StereoCalibration> rebuilt = ToStereoCalibration(read);
+    ASSERT_TRUE(rebuilt.ok()) << rebuilt.status();
+    EXPECT_EQ((rebuilt->Q - original->Q).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_EQ((rebuilt->P2 - original->P2).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_EQ((rebuilt->R1 - original->R1).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_EQ(rebuilt->baseline_m, original->baseline_m);
+    EXPECT_EQ(rebuilt->source, "chessboard");
+    EXPECT_EQ(rebuilt->rms_reprojection_px, 0.31);
+    ASSERT_EQ(rebuilt->skipped.size(), 1u);
+    EXPECT_EQ(rebuilt->skipped[0].index, 4);
+}
+
+TEST(ProtoConvert, StoredCalibrationWithBadParametersIsRefusedNamingTheField) {
+    v1::Calibration stored;
+    *stored.mutable_parameters() = Rig();
+    stored.mutable_parameters()->mutable_left()->set_fx(-1.0);
+    ExpectInvalid(ToStereoCalibration(stored).status(), "parameters.left.fx");
+    stored.clear_parameters();
+    EXPECT_FALSE(ToStereoCalibration(stored).ok());
+}
+
 TEST(ProtoConvert, StereoParameterCountsNameTheField) {
     v1::StereoParameters p = Rig();
     p.mutable_rotation()->RemoveLast();
