@@ -25,22 +25,32 @@ CLI_BIN = os.environ.get("SOILVOL_CLI_BIN", "build/client/soilvol")
 EXTERNAL_GRPC = os.environ.get("SOILVOL_EXTERNAL_GRPC")
 EXTERNAL_HTTP = os.environ.get("SOILVOL_EXTERNAL_HTTP")
 EXTERNAL = bool(EXTERNAL_GRPC or EXTERNAL_HTTP)
+# A secured external server: the bearer token its tests use (read, estimate and admin scopes)
+# and the CA that signed its certificate (https:// and TLS gRPC).
+EXTERNAL_TOKEN = os.environ.get("SOILVOL_EXTERNAL_TOKEN")
+EXTERNAL_CA = os.environ.get("SOILVOL_EXTERNAL_CA")
 # Time limits that depend on how fast the engine computes are multiplied by this: the
 # sanitizer build (scripts/sanitize.sh) runs the same tests several times slower.
 TIME_SCALE = float(os.environ.get("SOILVOL_TEST_TIME_SCALE", "1"))
 
 
 class RestClient:
-    """REST calls to `self.base_url`."""
+    """REST calls to `self.base_url`; over TLS with `self.ssl_context`, with `self.token` as a
+    bearer token unless the call's headers say otherwise."""
+    ssl_context = None
+    token = EXTERNAL_TOKEN
 
     def rest(self, method, path, body=None, raw=None, headers=None, timeout_s=120):
         """(HTTP status, parsed JSON or text) for one request. `raw` sends bytes as they are."""
         data = raw if raw is not None else (json.dumps(body).encode() if body is not None else None)
         hdrs = {"Content-Type": "application/json"}
+        if self.token:
+            hdrs["Authorization"] = f"Bearer {self.token}"
         hdrs.update(headers or {})
+        hdrs = {k: v for k, v in hdrs.items() if v is not None}
         req = urllib.request.Request(self.base_url + path, method=method, data=data, headers=hdrs)
         try:
-            with urllib.request.urlopen(req, timeout=timeout_s) as r:
+            with urllib.request.urlopen(req, timeout=timeout_s, context=self.ssl_context) as r:
                 status, text, ctype = r.status, r.read().decode(), r.headers.get("Content-Type", "")
         except urllib.error.HTTPError as e:
             status, text, ctype = e.code, e.read().decode(), e.headers.get("Content-Type", "")
@@ -52,7 +62,14 @@ class RestClient:
 class Server(RestClient):
     """One soilvol-server process. Use as a context manager, or call start()/stop()."""
 
-    def __init__(self, data_dir=None, args=(), env=None):
+    def __init__(self, data_dir=None, args=(), env=None, tls_ca=None, token=None):
+        """`tls_ca`: the server runs TLS (its args give the files) and clients trust this CA;
+        `token`: the bearer token REST calls carry by default."""
+        self.tls_ca = tls_ca
+        self.token = token
+        if tls_ca:
+            import ssl
+            self.ssl_context = ssl.create_default_context(cafile=tls_ca)
         self.own_dir = data_dir is None
         self.data_dir = data_dir or tempfile.mkdtemp(prefix="soilvol-it-")
         self.args = list(args)
@@ -92,7 +109,13 @@ class Server(RestClient):
 
     @property
     def base_url(self):
-        return f"http://127.0.0.1:{self.http_port}"
+        return f"{'https' if self.tls_ca else 'http'}://127.0.0.1:{self.http_port}"
+
+    def channel(self, grpc, token=None):
+        """A gRPC channel to this server: TLS when it runs TLS, `token` (default: the server's)
+        on every call."""
+        return make_channel(grpc, self.grpc_target, self.tls_ca,
+                            token if token is not None else self.token)
 
     def stop(self, sig=signal.SIGTERM, timeout_s=30):
         """Stops the process; returns its exit code."""
@@ -139,6 +162,14 @@ class ExternalServer(RestClient):
         self.base_url = base_url.rstrip("/")
         self.log = []
         self.own_process = False
+        self.tls_ca = EXTERNAL_CA
+        if EXTERNAL_CA:
+            import ssl
+            self.ssl_context = ssl.create_default_context(cafile=EXTERNAL_CA)
+
+    def channel(self, grpc, token=None):
+        return make_channel(grpc, self.grpc_target, self.tls_ca,
+                            token if token is not None else self.token)
 
     def start(self, timeout_s=60):
         """Waits until the server reports ready on /readyz."""
@@ -157,6 +188,41 @@ class ExternalServer(RestClient):
 
     def close(self):
         return 0
+
+
+def make_channel(grpc, target, tls_ca=None, token=None):
+    """A channel to `target`: TLS trusting `tls_ca` when given, `token` as a bearer token on
+    every call (an interceptor, so that it also works without TLS)."""
+    if tls_ca:
+        with open(tls_ca, "rb") as f:
+            channel = grpc.secure_channel(target, grpc.ssl_channel_credentials(f.read()))
+    else:
+        channel = grpc.insecure_channel(target)
+    if not token:
+        return channel
+    return grpc.intercept_channel(channel, BearerInterceptor(grpc, token))
+
+
+class BearerInterceptor:
+    """Adds `authorization: Bearer <token>` to every call of a channel."""
+
+    def __new__(cls, grpc, token):
+        class Interceptor(grpc.UnaryUnaryClientInterceptor, grpc.StreamStreamClientInterceptor,
+                          grpc.UnaryStreamClientInterceptor):
+            def _with_token(self, details):
+                metadata = list(details.metadata or []) + [("authorization", f"Bearer {token}")]
+                return details._replace(metadata=metadata)
+
+            def intercept_unary_unary(self, continuation, details, request):
+                return continuation(self._with_token(details), request)
+
+            def intercept_unary_stream(self, continuation, details, request):
+                return continuation(self._with_token(details), request)
+
+            def intercept_stream_stream(self, continuation, details, requests):
+                return continuation(self._with_token(details), requests)
+
+        return Interceptor()
 
 
 def shared_server(args=("--workers", "2")):
@@ -236,3 +302,44 @@ def load_grpc():
     sys.path.insert(0, proto_dir)
     from soilvol.v1 import soilvol_pb2, soilvol_pb2_grpc
     return grpc, soilvol_pb2, soilvol_pb2_grpc
+
+
+def openssl(*args, cwd):
+    subprocess.run(["openssl", *args], cwd=cwd, check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.PIPE)
+
+
+class Pki:
+    """A throwaway certificate authority in `folder` (openssl CLI): ca.crt, and per name a key
+    and a certificate it signed (server ones for localhost and 127.0.0.1)."""
+
+    def __init__(self, folder, ca_name="ca"):
+        self.folder = folder
+        self.ca = ca_name
+        openssl("req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+                "-nodes", "-days", "2", "-subj", f"/CN=soilvol test {ca_name}",
+                "-keyout", f"{ca_name}.key", "-out", f"{ca_name}.crt", cwd=folder)
+
+    def path(self, name):
+        return os.path.join(self.folder, name)
+
+    def issue(self, name, server=True, serial=None):
+        """(cert path, key path) of a new certificate `name` signed by this CA."""
+        ext = os.path.join(self.folder, f"{name}.ext")
+        with open(ext, "w") as f:
+            f.write("subjectAltName=DNS:localhost,IP:127.0.0.1\nextendedKeyUsage=serverAuth\n"
+                    if server else "extendedKeyUsage=clientAuth\n")
+        openssl("req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+                "-subj", f"/CN={name}", "-keyout", f"{name}.key", "-out", f"{name}.csr",
+                cwd=self.folder)
+        openssl("x509", "-req", "-in", f"{name}.csr", "-CA", f"{self.ca}.crt", "-CAkey",
+                f"{self.ca}.key", "-days", "2", "-extfile", ext,
+                *(["-set_serial", str(serial)] if serial else ["-CAcreateserial"]),
+                "-out", f"{name}.crt", cwd=self.folder)
+        return self.path(f"{name}.crt"), self.path(f"{name}.key")
+
+
+def token_line(name, scopes, token):
+    """A line of a --auth-tokens-file for `token`."""
+    import hashlib
+    return f"{name} {scopes} sha256:{hashlib.sha256(token.encode()).hexdigest()}\n"

@@ -52,7 +52,14 @@ class BufCurl(unittest.TestCase):
         if version.returncode != 0:
             raise RuntimeError(f"{BUF} does not run: {version.stderr}")
         cls.server = shared_server()
-        cls.url = f"http://{cls.server.grpc_target}"
+        # A secured server: TLS with its CA and the suite's bearer token, through reflection too.
+        secure = bool(getattr(cls.server, "tls_ca", None))
+        cls.url = f"{'https' if secure else 'http'}://{cls.server.grpc_target}"
+        cls.transport = (["--cacert", cls.server.tls_ca] if secure
+                         else ["--http2-prior-knowledge"])
+        if cls.server.token:
+            cls.transport += ["-H", f"Authorization: Bearer {cls.server.token}",
+                              "--reflect-header", f"Authorization: Bearer {cls.server.token}"]
 
     @classmethod
     def tearDownClass(cls):
@@ -61,8 +68,7 @@ class BufCurl(unittest.TestCase):
 
     def buf(self, *args):
         """(exit code, stdout, stderr) of one buf curl over gRPC with reflection."""
-        cmd = [BUF, "curl", "--protocol", "grpc", "--http2-prior-knowledge", "--timeout", "60s",
-               *args]
+        cmd = [BUF, "curl", "--protocol", "grpc", *self.transport, "--timeout", "60s", *args]
         done = subprocess.run(cmd, capture_output=True, text=True, env=self.env, timeout=120)
         return done.returncode, done.stdout, done.stderr
 

@@ -63,7 +63,7 @@ class Client:
     """A channel and stub to one server."""
 
     def __init__(self, server):
-        self.channel = grpc.insecure_channel(server.grpc_target)
+        self.channel = server.channel(grpc)
         self.stub = pb_grpc.SoilVolumeStub(self.channel)
 
     def close(self):

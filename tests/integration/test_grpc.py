@@ -84,7 +84,7 @@ class GrpcFlow(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.server = shared_server()
-        cls.channel = grpc.insecure_channel(cls.server.grpc_target)
+        cls.channel = cls.server.channel(grpc)
         cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
         cls.empty = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
 
@@ -323,7 +323,7 @@ class GrpcFlow(unittest.TestCase):
 class MessageLimit(unittest.TestCase):
     def test_oversize_request_is_refused_and_server_keeps_serving(self):
         with Server(args=["--workers", "1", "--max-message-mb", "1"]) as server:
-            with grpc.insecure_channel(server.grpc_target) as channel:
+            with server.channel(grpc) as channel:
                 stub = pb_grpc.SoilVolumeStub(channel)
                 big = pb.RegisterContainerRequest(container_id="big",
                                                   scan=cloud(os.urandom(2 << 20)),
@@ -348,7 +348,7 @@ class MessageLimit(unittest.TestCase):
 class HealthWatch(unittest.TestCase):
     def test_watch_reports_shutdown(self):
         with Server(args=["--workers", "1"]) as server:
-            with grpc.insecure_channel(server.grpc_target) as channel:
+            with server.channel(grpc) as channel:
                 _, watch = health_methods(channel)
                 stream = watch("", timeout=30)
                 self.assertEqual(next(stream), SERVING)

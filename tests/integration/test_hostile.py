@@ -2,14 +2,24 @@
 (time and the server's peak resident memory), and the server keeps serving normal calls."""
 import gzip
 import http.client
+import json
+import os
+import signal
+import socket
+import statistics
 import struct
 import sys
+import threading
 import time
 import unittest
 import zlib
 
 from box_scene import box_scan, encode_ply, opening_corners
-from harness import TIME_SCALE, Server, b64, cloud_scan, corners_json, needs_own_server, shared_server
+from harness import (TIME_SCALE, Server, b64, cloud_scan, corners_json, load_grpc,
+                     needs_own_server, server_metric, shared_server, wait_until)
+
+OPENCV_DATA = "/usr/share/doc/opencv-doc/examples/data"
+HAVE_CHESSBOARDS = os.path.exists(f"{OPENCV_DATA}/left01.jpg")
 
 
 def peak_rss_mb(server):
@@ -29,6 +39,39 @@ def png_claiming(width, height, bit_depth=16):
     ihdr = struct.pack(">IIBBBBB", width, height, bit_depth, 0, 0, 0, 0)
     return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) +
             chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b""))
+
+
+def cpu_seconds(server):
+    """CPU time the server process has used so far (user + system) [s]."""
+    with open(f"/proc/{server.proc.pid}/stat") as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def chessboard_pairs(count):
+    """`count` pairs of opencv-doc's real 9x6 chessboard images (its 13 pairs, repeated)."""
+    numbers = [n for n in range(1, 15) if n != 10]
+    pairs = []
+    for i in range(count):
+        n = numbers[i % len(numbers)]
+        with open(f"{OPENCV_DATA}/left{n:02d}.jpg", "rb") as left, \
+                open(f"{OPENCV_DATA}/right{n:02d}.jpg", "rb") as right:
+            pairs.append((left.read(), right.read()))
+    return pairs
+
+
+def calibration_json(calibration_id, pairs):
+    return {"calibrationId": calibration_id, "overwrite": True,
+            "chessboard": {"pairs": [{"left": b64(l), "right": b64(r)} for l, r in pairs],
+                           "innerCorners": {"cols": 9, "rows": 6}, "squareSizeM": 0.025}}
+
+
+def stops_working(server, settle_s=1.0, window_s=1.0):
+    """CPU seconds the server spends in `window_s`, measured `settle_s` after now."""
+    time.sleep(settle_s)
+    before = cpu_seconds(server)
+    time.sleep(window_s)
+    return cpu_seconds(server) - before
 
 
 def webp_claiming(width, height):
@@ -189,6 +232,143 @@ class HostileOwnServer(unittest.TestCase):
             own = f"http://127.0.0.1:{server.http_port}"
             status, _ = server.rest("GET", "/v1/containers", headers={"Origin": own})
             self.assertEqual(status, 200)
+
+
+@needs_own_server
+class SlowClients(unittest.TestCase):
+    """#5: 200 connections sending a byte a second do not hold anyone else up."""
+
+    def test_slowloris_does_not_delay_normal_calls(self):
+        with Server(args=["--workers", "2"]) as server:
+            scan = cloud_scan(encode_ply(box_scan()))
+            status, err = server.rest("POST", "/v1/containers",
+                                      {"containerId": "box", "scan": scan,
+                                       "opening": corners_json(opening_corners())})
+            self.assertEqual(status, 200, err)
+
+            def timed_calls(count):
+                times = []
+                for _ in range(count):
+                    start = time.monotonic()
+                    self.assertEqual(server.rest("GET", "/v1/containers")[0], 200)
+                    self.assertEqual(server.rest("POST", "/v1/containers/box:estimate",
+                                                 {"scan": scan})[0], 200)
+                    times.append(time.monotonic() - start)
+                return times
+
+            baseline = timed_calls(10)
+            slow = []
+            for _ in range(200):
+                conn = socket.create_connection(("127.0.0.1", server.http_port), timeout=30)
+                conn.sendall(b"POST /v1/containers HTTP/1.1\r\n")
+                slow.append(conn)
+            stop = threading.Event()
+            closed = []
+
+            def trickle():
+                start = time.monotonic()
+                while not stop.is_set():
+                    for conn in list(slow):
+                        try:
+                            conn.sendall(b"X")
+                        except OSError:
+                            slow.remove(conn)
+                            conn.close()
+                            closed.append(time.monotonic() - start)
+                    stop.wait(1.0)
+
+            thread = threading.Thread(target=trickle)
+            thread.start()
+            try:
+                time.sleep(1.0)
+                during = timed_calls(20)
+                self.assertTrue(wait_until(lambda: len(closed) == 200, timeout_s=20))
+            finally:
+                stop.set()
+                thread.join()
+                for conn in slow:
+                    conn.close()
+            print(f"\nslowloris: calls {statistics.median(baseline) * 1e3:.1f} ms before, "
+                  f"{statistics.median(during) * 1e3:.1f} ms (max {max(during) * 1e3:.1f}) with 200 "
+                  f"slow connections; those cut after {max(closed):.1f} s", file=sys.stderr)
+            self.assertLess(statistics.median(during),
+                            2.0 * statistics.median(baseline) + 0.05 * TIME_SCALE)
+            self.assertLess(max(during), 1.0 * TIME_SCALE)
+            self.assertLess(max(closed), 10.0 + 3.0)  # the header timeout, 10 s
+
+
+@needs_own_server
+@unittest.skipUnless(HAVE_CHESSBOARDS, "opencv-doc not installed")
+class WorkStopsWhenTheCallerIsGone(unittest.TestCase):
+    """#6: a 200-pair calibration stops soon after its caller's deadline, cancel or disconnect,
+    stores nothing, and does not hold up a SIGTERM."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.pairs = chessboard_pairs(200)
+
+    def assert_stopped(self, server, calibration_id, since):
+        self.assertTrue(wait_until(lambda: server_metric(server, "soilvol_in_flight") == 0,
+                                   timeout_s=1.0 * TIME_SCALE, step_s=0.05),
+                        "in_flight stayed above 0")
+        stopped_after = time.monotonic() - since
+        spent = stops_working(server, settle_s=0.2, window_s=1.0)
+        print(f"\n{self.id().split('.')[-1]}: in_flight 0 after {stopped_after:.2f} s, then "
+              f"{spent:.2f} CPU s in 1 s", file=sys.stderr)
+        self.assertLess(spent, 0.2)
+        self.assertEqual(server.rest("GET", f"/v1/calibrations/{calibration_id}")[0], 404)
+
+    def test_grpc_deadline_stops_the_calibration(self):
+        grpc, pb, pb_grpc = load_grpc()
+        from google.protobuf import json_format
+        with Server(args=["--workers", "1"]) as server:
+            request = json_format.ParseDict(calibration_json("late", self.pairs),
+                                            pb.CalibrateRequest())
+            with server.channel(grpc) as channel:
+                stub = pb_grpc.SoilVolumeStub(channel)
+                start = time.monotonic()
+                with self.assertRaises(grpc.RpcError) as caught:
+                    stub.Calibrate(request, timeout=3.0)
+                deadline = time.monotonic()
+                self.assertEqual(caught.exception.code(), grpc.StatusCode.DEADLINE_EXCEEDED)
+                self.assertLess(deadline - start, 4.0)
+            self.assert_stopped(server, "late", deadline)
+
+    def test_rest_client_that_disconnects_stops_the_calibration(self):
+        with Server(args=["--workers", "1"]) as server:
+            body = json.dumps(calibration_json("gone", self.pairs)).encode()
+            conn = http.client.HTTPConnection("127.0.0.1", server.http_port, timeout=60)
+            conn.request("POST", "/v1/calibrations", body=body,
+                         headers={"Content-Type": "application/json"})
+            self.assertTrue(wait_until(lambda: server_metric(server, "soilvol_in_flight") == 1,
+                                       timeout_s=10))
+            time.sleep(1.0)
+            conn.close()
+            self.assert_stopped(server, "gone", time.monotonic())
+
+    def test_sigterm_finishes_within_the_grace_period(self):
+        server = Server(args=["--workers", "1", "--shutdown-grace-s", "2"]).start()
+        try:
+            body = json.dumps(calibration_json("term", self.pairs)).encode()
+            conn = http.client.HTTPConnection("127.0.0.1", server.http_port, timeout=60)
+            conn.request("POST", "/v1/calibrations", body=body,
+                         headers={"Content-Type": "application/json"})
+            self.assertTrue(wait_until(lambda: server_metric(server, "soilvol_in_flight") == 1,
+                                       timeout_s=10))
+            start = time.monotonic()
+            server.proc.send_signal(signal.SIGTERM)
+            code = server.proc.wait(30)
+            took = time.monotonic() - start
+            print(f"\nSIGTERM with a 200-pair calibration running: exit {code} after {took:.2f} s "
+                  f"(grace 2 s)", file=sys.stderr)
+            self.assertEqual(code, 0)
+            self.assertLess(took, 2.0 + 1.5 * TIME_SCALE)
+            conn.close()
+            folder = os.path.join(server.data_dir, "calibrations")
+            entries = os.listdir(folder) if os.path.isdir(folder) else []
+            self.assertFalse([e for e in entries if "term" in e], entries)
+        finally:
+            server.close()
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """What test_docker.py and test_deploy.py both need: the server's flags, the Dockerfile's
-stages, and a server process started from an environment like a container's."""
+stages, throwaway secrets (scripts/dev-secrets.sh) in place of the mounted ones, a server process
+started from an environment like a container's, and clients that speak TLS with a token."""
 import json
 import os
 import queue
@@ -7,13 +8,25 @@ import re
 import shlex
 import shutil
 import signal
+import ssl
 import subprocess
 import tempfile
 import threading
+import urllib.error
+import urllib.request
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+DEV_SECRETS = os.path.join(ROOT, "scripts", "dev-secrets.sh")
 
 
 def port_of(address):
     return int(address.rsplit(":", 1)[1])
+
+
+def is_loopback(address):
+    """True for a host:port only this machine reaches (the server's own rule)."""
+    host = address.rsplit(":", 1)[0].strip("[]")
+    return host in ("localhost", "::1") or host.startswith("127.")
 
 
 def help_env(binary):
@@ -66,9 +79,70 @@ def env_of(instructions):
     return env
 
 
+class DevSecrets:
+    """What scripts/dev-secrets.sh writes, in a temporary folder: tls/{ca.crt,tls.crt,tls.key}
+    (a certificate for localhost and 127.0.0.1), auth/tokens and admin.token (all scopes)."""
+
+    def __init__(self):
+        self.dir = tempfile.mkdtemp(prefix="soilvol-ship-secrets-")
+        try:
+            subprocess.run([DEV_SECRETS, "--force", self.dir], check=True, capture_output=True,
+                           timeout=60)
+        except subprocess.SubprocessError:
+            self.close()
+            raise
+        self.tls = os.path.join(self.dir, "tls")
+        self.auth = os.path.join(self.dir, "auth")
+        self.ca = os.path.join(self.tls, "ca.crt")
+        self.token_file = os.path.join(self.dir, "admin.token")
+        with open(self.token_file) as f:
+            self.token = f.read().strip()
+
+    def mounted(self, env, mounts):
+        """`env` with each path under a mount point of `mounts` ({mount path: our folder})
+        moved to our folder, as the container sees the mounted Secret there."""
+        moved = {}
+        for key, value in env.items():
+            for mount, folder in mounts.items():
+                if value.startswith(mount.rstrip("/") + "/"):
+                    value = os.path.join(folder, value[len(mount.rstrip("/")) + 1:])
+            moved[key] = value
+        return moved
+
+    def close(self):
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def parse_log_line(line):
+    """The fields of one log line, text (key=value, key="quoted") or JSON; numbers as int."""
+    if line.startswith("{"):
+        return json.loads(line)
+    fields = {}
+    for key, value in re.findall(r'(\w+)=("(?:[^"\\]|\\.)*"|\S+)', line):
+        value = json.loads(value) if value.startswith('"') else value
+        fields[key] = int(value) if re.fullmatch(r"\d+", str(value)) else value
+    return fields
+
+
+def rest(url, ca=None, token=None, timeout_s=10):
+    """HTTP status of GET `url` (no proxy), over TLS trusting `ca`, with `token` as a bearer
+    token when given."""
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    handlers = [urllib.request.ProxyHandler({})]
+    if ca:
+        handlers.append(urllib.request.HTTPSHandler(context=ssl.create_default_context(cafile=ca)))
+    opener = urllib.request.build_opener(*handlers)
+    try:
+        with opener.open(urllib.request.Request(url, headers=headers), timeout=timeout_s) as r:
+            return r.status
+    except urllib.error.HTTPError as e:
+        return e.code
+
+
 class ServerProcess:
     """soilvol-server with `env` over our environment minus its SOILVOL_* variables, on
-    ephemeral loopback ports and a temporary data directory, as a container would run it."""
+    ephemeral loopback ports (a probe listener too when `env` asks for one) and a temporary
+    data directory, as a container would run it."""
 
     def __init__(self, binary, env):
         self.data_dir = tempfile.mkdtemp(prefix="soilvol-ship-")
@@ -76,6 +150,8 @@ class ServerProcess:
         full.update(env)
         full.update(SOILVOL_GRPC_ADDRESS="127.0.0.1:0", SOILVOL_HTTP_ADDRESS="127.0.0.1:0",
                     SOILVOL_DATA_DIR=self.data_dir)
+        if env.get("SOILVOL_PROBE_ADDRESS"):
+            full["SOILVOL_PROBE_ADDRESS"] = "127.0.0.1:0"
         self.proc = subprocess.Popen([binary], env=full, stdout=subprocess.DEVNULL,
                                      stderr=subprocess.PIPE, text=True)
         self.log = []
@@ -102,12 +178,29 @@ class ServerProcess:
                 raise AssertionError(f"soilvol-server exited before listening; stderr: "
                                      f"{''.join(self.log)}")
             self.log.append(line)
-            if line.startswith("{"):
-                fields = json.loads(line)
-                if fields.get("msg") == "listening":
-                    return fields
-            elif " listening " in line:
-                return {k: int(v) for k, v in re.findall(r"(\w+)=(\d+)\b", line)}
+            if line.startswith("{") or " listening " in line:
+                fields = parse_log_line(line)
+                if line.startswith("{") and fields.get("msg") != "listening":
+                    continue
+                return fields
+
+    def wait_exit(self, timeout_s=30):
+        """The exit code of a server expected to stop by itself, and its stderr; AssertionError
+        (after stopping it) when it is still running after `timeout_s`."""
+        try:
+            code = self.proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.stop()
+            raise AssertionError(f"soilvol-server still runs after {timeout_s} s; stderr: "
+                                 f"{''.join(self.log)}") from None
+        self._reader.join(timeout=10)
+        while not self._lines.empty():
+            line = self._lines.get()
+            if line is not None:
+                self.log.append(line)
+        self.proc.stderr.close()
+        shutil.rmtree(self.data_dir, ignore_errors=True)
+        return code, "".join(self.log)
 
     def stop(self, timeout_s=30):
         """SIGTERM; the exit code. Removes the data directory."""
