@@ -48,7 +48,7 @@ SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store)
 absl::StatusOr<SoilVolumeHandlers::CalibrationEntry> SoilVolumeHandlers::DecodeCalibration(
     const StoredEntry& entry) {
     CalibrationEntry out;
-    // The message holds the whole rig; entries written before 0.2 also carry it as OpenCV YAML,
+    // The message holds the whole rig; older entries also carry it as OpenCV YAML,
     // which is no longer read (OpenCV's YAML parser hangs on some inputs).
     std::string_view legacy_yaml;
     SOILVOL_RETURN_IF_ERROR(DecodeStoredRecord(entry.payload, &out.info, &legacy_yaml));

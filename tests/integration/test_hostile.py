@@ -235,6 +235,93 @@ class HostileOwnServer(unittest.TestCase):
 
 
 @needs_own_server
+@unittest.skipIf(TIME_SCALE > 1, "sanitizers multiply memory: peak RSS is measured in Release")
+class MemoryBudget(unittest.TestCase):
+    """The largest requests the documented limits allow, measured in the server's peak RSS: one
+    under 1.5 GB, and 8 at once (2 workers, 8 waiting: the Deployment's pod) under its 2 GiB
+    memory limit. Scans of 5M points (the cloud limit; 60 MB as binary PLY, under 64 MiB)."""
+
+    LIMIT_POD_MB = 2048.0
+    LIMIT_ONE_MB = 1536.0
+
+    def test_largest_scans_alone_and_eight_at_once(self):
+        grpc, pb, pb_grpc = load_grpc()
+        # Spacing for ~5M returns over the box and its surroundings.
+        big = encode_ply(box_scan(0.2, step=0.00101, seed=3))
+        self.assertLess(len(big), 64 << 20)
+        with Server(args=["--workers", "2", "--max-queue", "8"]) as server:
+            with server.channel(grpc) as channel:
+                stub = pb_grpc.SoilVolumeStub(channel)
+                register = pb.RegisterContainerRequest(container_id="box")
+                register.scan.cloud.data = encode_ply(box_scan())
+                for x, y, z in opening_corners():
+                    register.opening.corners.add(x=x, y=y, z=z)
+                stub.RegisterContainer(register, timeout=120)
+                request = pb.EstimateVolumeRequest(container_id="box")
+                request.scan.cloud.data = big
+                baseline = peak_rss_mb(server)
+                start = time.monotonic()
+                one = stub.EstimateVolume(request, timeout=600)
+                alone_s = time.monotonic() - start
+                alone_mb = peak_rss_mb(server)
+                codes = []
+
+                def estimate():
+                    try:
+                        stub.EstimateVolume(request, timeout=600)
+                        codes.append("OK")
+                    except grpc.RpcError as e:
+                        codes.append(e.code().name)
+
+                threads = [threading.Thread(target=estimate) for _ in range(8)]
+                start = time.monotonic()
+                for thread in threads:
+                    thread.start()
+                for thread in threads:
+                    thread.join()
+                eight_s = time.monotonic() - start
+                eight_mb = peak_rss_mb(server)
+        print(f"\nmemory (gRPC): idle {baseline:.0f} MiB; one 5M-point estimate {alone_mb:.0f} MiB "
+              f"peak ({alone_s:.1f} s, {one.volume_m3 * 1e3:.0f} L); 8 at once {eight_mb:.0f} MiB "
+              f"peak ({eight_s:.1f} s, {codes})", file=sys.stderr)
+        self.assertLess(alone_mb, self.LIMIT_ONE_MB)
+        self.assertLess(eight_mb, self.LIMIT_POD_MB)
+        self.assertTrue(all(code in ("OK", "RESOURCE_EXHAUSTED") for code in codes), codes)
+        self.eight_over_rest(big)
+
+    def eight_over_rest(self, big):
+        """The same 8 as base64 JSON bodies of 79 MB each."""
+        with Server(args=["--workers", "2", "--max-queue", "8"]) as server:
+            status, err = server.rest("POST", "/v1/containers",
+                                      {"containerId": "box", "scan": cloud_scan(encode_ply(box_scan())),
+                                       "opening": corners_json(opening_corners())})
+            self.assertEqual(status, 200, err)
+            body = json.dumps({"scan": cloud_scan(big)}).encode()
+            statuses = []
+
+            def estimate():
+                conn = http.client.HTTPConnection("127.0.0.1", server.http_port, timeout=600)
+                conn.request("POST", "/v1/containers/box:estimate", body=body,
+                             headers={"Content-Type": "application/json"})
+                response = conn.getresponse()
+                response.read()
+                statuses.append(response.status)
+                conn.close()
+
+            threads = [threading.Thread(target=estimate) for _ in range(8)]
+            start = time.monotonic()
+            for thread in threads:
+                thread.start()
+            for thread in threads:
+                thread.join()
+            peak = peak_rss_mb(server)
+        print(f"memory (REST): 8 bodies of {len(body) / 1e6:.0f} MB at once {peak:.0f} MiB peak "
+              f"({time.monotonic() - start:.1f} s, {statuses})", file=sys.stderr)
+        self.assertLess(peak, self.LIMIT_POD_MB)
+        self.assertTrue(all(status in (200, 429) for status in statuses), statuses)
+
+
+@needs_own_server
 class SlowClients(unittest.TestCase):
     """#5: 200 connections sending a byte a second do not hold anyone else up."""
 
