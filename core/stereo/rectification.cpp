@@ -14,6 +14,8 @@ namespace soilvol::stereo::detail {
 namespace {
 
 constexpr double kRotationTolerance = 1e-6;  // max |R^T R - I|
+constexpr double kMaxBaselineM = 100.0;      // past any rig on a machine or a site mast
+constexpr double kMaxFocalPx = 1e6;          // a 1 mrad field of view on 1000 px
 
 absl::Status Invalid(absl::string_view field, absl::string_view problem) {
     return absl::InvalidArgumentError(absl::StrCat(field, " ", problem));
@@ -35,6 +37,10 @@ absl::Status CheckCamera(absl::string_view name, const CameraIntrinsics& camera,
     }
     if (!std::isfinite(camera.fy) || camera.fy <= 0.0) {
         return Invalid(field("fy"), "must be positive and finite");
+    }
+    if (camera.fx > kMaxFocalPx || camera.fy > kMaxFocalPx) {
+        return Invalid(field(camera.fx > kMaxFocalPx ? "fx" : "fy"),
+                       absl::StrCat("must be at most ", kMaxFocalPx, " px"));
     }
     if (!std::isfinite(camera.cx) || camera.cx < 0.0 || camera.cx > width) {
         return Invalid(field("cx"), absl::StrCat("must be inside the image [0, ", width, "]"));
@@ -82,6 +88,10 @@ absl::Status ValidateStereoParameters(const StereoParameters& parameters) {
     const Eigen::Vector3d& translation = parameters.t_right_left_m;
     if (!translation.allFinite()) return Invalid("t_right_left_m", "must be finite");
     if (translation.norm() <= 0.0) return Invalid("t_right_left_m", "is zero");
+    if (!(translation.norm() <= kMaxBaselineM)) {  // NaN too: the norm of huge values overflows
+        return Invalid("t_right_left_m",
+                       absl::StrCat("gives a baseline past ", kMaxBaselineM, " m"));
+    }
     return absl::OkStatus();
 }
 
@@ -117,6 +127,11 @@ absl::StatusOr<StereoCalibration> Rectify(const StereoParameters& parameters) {
     }
     calibration.baseline_m = parameters.t_right_left_m.norm();
     calibration.focal_px = calibration.P1(0, 0);
+    if (!(calibration.focal_px > 0.0 && std::isfinite(calibration.focal_px))) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("parameters give a degenerate rectification (focal length ",
+                         calibration.focal_px, " px)"));
+    }
     return calibration;
 }
 

@@ -41,6 +41,17 @@ def png_claiming(width, height, bit_depth=16):
             chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b""))
 
 
+def at_once(call, count):
+    """Runs `call` on `count` threads at once; the seconds until the last one returned."""
+    threads = [threading.Thread(target=call) for _ in range(count)]
+    start = time.monotonic()
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    return time.monotonic() - start
+
+
 def cpu_seconds(server):
     """CPU time the server process has used so far (user + system) [s]."""
     with open(f"/proc/{server.proc.pid}/stat") as stat:
@@ -273,13 +284,7 @@ class MemoryBudget(unittest.TestCase):
                     except grpc.RpcError as e:
                         codes.append(e.code().name)
 
-                threads = [threading.Thread(target=estimate) for _ in range(8)]
-                start = time.monotonic()
-                for thread in threads:
-                    thread.start()
-                for thread in threads:
-                    thread.join()
-                eight_s = time.monotonic() - start
+                eight_s = at_once(estimate, 8)
                 eight_mb = peak_rss_mb(server)
         print(f"\nmemory (gRPC): idle {baseline:.0f} MiB; one 5M-point estimate {alone_mb:.0f} MiB "
               f"peak ({alone_s:.1f} s, {one.volume_m3 * 1e3:.0f} L); 8 at once {eight_mb:.0f} MiB "
@@ -308,15 +313,10 @@ class MemoryBudget(unittest.TestCase):
                 statuses.append(response.status)
                 conn.close()
 
-            threads = [threading.Thread(target=estimate) for _ in range(8)]
-            start = time.monotonic()
-            for thread in threads:
-                thread.start()
-            for thread in threads:
-                thread.join()
+            took_s = at_once(estimate, 8)
             peak = peak_rss_mb(server)
         print(f"memory (REST): 8 bodies of {len(body) / 1e6:.0f} MB at once {peak:.0f} MiB peak "
-              f"({time.monotonic() - start:.1f} s, {statuses})", file=sys.stderr)
+              f"({took_s:.1f} s, {statuses})", file=sys.stderr)
         self.assertLess(peak, self.LIMIT_POD_MB)
         self.assertTrue(all(status in (200, 429) for status in statuses), statuses)
 

@@ -159,6 +159,12 @@ TEST(CalibrationFromParametersTest, EachInvalidFieldIsNamed) {
         {"R_right_left must be finite", [](auto& p) { p.R_right_left(2, 2) = kNan; }},
         {"t_right_left_m is zero", [](auto& p) { p.t_right_left_m.setZero(); }},
         {"t_right_left_m must be finite", [](auto& p) { p.t_right_left_m.y() = kInf; }},
+        // Found by fuzz_calibration_record: finite values whose norm overflows to infinity.
+        {"t_right_left_m gives a baseline past 100 m",
+         [](auto& p) { p.t_right_left_m << -0.1, -1.06e178, -1.06e178; }},
+        {"t_right_left_m gives a baseline past 100 m", [](auto& p) { p.t_right_left_m.x() = 101; }},
+        {"left.fx must be at most 1e+06 px", [](auto& p) { p.left.fx = 2e6; }},
+        {"right.fy must be at most 1e+06 px", [](auto& p) { p.right.fy = 1e300; }},
     };
     for (const BadField& bad : cases) {
         StereoParameters rig = SyntheticRig();
