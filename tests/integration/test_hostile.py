@@ -378,9 +378,11 @@ class SlowClients(unittest.TestCase):
             print(f"\nslowloris: calls {statistics.median(baseline) * 1e3:.1f} ms before, "
                   f"{statistics.median(during) * 1e3:.1f} ms (max {max(during) * 1e3:.1f}) with 200 "
                   f"slow connections; those cut after {max(closed):.1f} s", file=sys.stderr)
+            # Before the fix every call waited 30 s; other tests share the machine under CTest -j,
+            # so the bound leaves room for their load.
             self.assertLess(statistics.median(during),
-                            2.0 * statistics.median(baseline) + 0.05 * TIME_SCALE)
-            self.assertLess(max(during), 1.0 * TIME_SCALE)
+                            3.0 * statistics.median(baseline) + 0.1 * TIME_SCALE)
+            self.assertLess(max(during), 2.0 * TIME_SCALE)
             self.assertLess(max(closed), 10.0 + 3.0)  # the header timeout, 10 s
 
 
