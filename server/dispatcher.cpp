@@ -70,7 +70,7 @@ void Dispatcher::Submit(CallContext context, Work work, Done done) {
                 absl::StrCat("deadline expired after ", static_cast<long long>(record.queue_ms),
                              " ms waiting for a worker"));
         } else if (record.stop.StopRequested()) {
-            status = absl::CancelledError("the caller cancelled the call while it waited");
+            status = record.stop.Check("the wait for a worker");
         } else {
             status = run_work(record);
             if (status.ok() && Clock::now() > ctx.deadline) {

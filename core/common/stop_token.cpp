@@ -18,10 +18,12 @@ StopToken::Reason StopToken::Poll() const {
     const int seen = state_->reason.load(std::memory_order_acquire);
     if (seen != kRunning) return static_cast<Reason>(seen);
     Reason now = kRunning;
-    if (deadline_ != Clock::time_point::max() && Clock::now() >= deadline_) {
+    const bool has_deadline = deadline_ != Clock::time_point::max();
+    const Clock::time_point time = Clock::now();
+    if (has_deadline && time >= deadline_) {
         now = kDeadline;
     } else if (state_->cancelled && state_->cancelled()) {
-        now = kCancelled;
+        now = has_deadline && time + kDeadlineSlack >= deadline_ ? kDeadline : kCancelled;
     }
     if (now == kRunning) return kRunning;
     // The first reason seen is the one every later check reports.

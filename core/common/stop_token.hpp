@@ -32,6 +32,11 @@ class StopToken {
     absl::Status Check(std::string_view stage) const;
     Clock::time_point deadline() const { return deadline_; }
 
+    /// A caller that goes away this close to its deadline went away because of it (a gRPC
+    /// client cancels the stream at its deadline, which reaches the server a few ms before the
+    /// server's own copy of the deadline passes): the stop is then reported as the deadline's.
+    static constexpr std::chrono::milliseconds kDeadlineSlack{250};
+
   private:
     enum Reason : int { kRunning = 0, kDeadline = 1, kCancelled = 2 };
     struct State {

@@ -287,13 +287,19 @@ class GrpcFlow(unittest.TestCase):
         # record DEADLINE_EXCEEDED.
         slow = pb.EstimateVolumeRequest(container_id="grpc-deadline-box", scan=cloud(filled_box(0.2)),
                                         grid_cell_m=0.005)
-        # The deadline stretches with the engine (sanitizers): a call that reaches the server after
-        # its deadline is dropped by gRPC before any handler sees it, and is not counted.
-        self.assert_code(lambda: self.stub.EstimateVolume(slow, timeout=0.15 * TIME_SCALE),
-                         CODE.DEADLINE_EXCEEDED)
-        self.assertTrue(wait_until(lambda: server_metric(
-            self.server, "soilvol_requests_total", code="DEADLINE_EXCEEDED", **method)
-            > late_before, timeout_s=10 * TIME_SCALE), "the server never recorded DEADLINE_EXCEEDED")
+        # The deadline stretches with the engine (sanitizers). A call that reaches the server after
+        # its deadline is dropped by gRPC before any handler sees it, and is not counted: on a
+        # loaded machine that can happen, so the call is tried up to three times.
+        recorded = False
+        for _ in range(3):
+            self.assert_code(lambda: self.stub.EstimateVolume(slow, timeout=0.15 * TIME_SCALE),
+                             CODE.DEADLINE_EXCEEDED)
+            recorded = wait_until(lambda: server_metric(
+                self.server, "soilvol_requests_total", code="DEADLINE_EXCEEDED", **method)
+                > late_before, timeout_s=5 * TIME_SCALE)
+            if recorded:
+                break
+        self.assertTrue(recorded, "the server never recorded DEADLINE_EXCEEDED")
         self.assertEqual(server_metric(self.server, "soilvol_requests_total", code="OK", **method),
                          ok_before)
         if self.server.own_process:

@@ -46,6 +46,15 @@ TEST(StopTokenTest, CallerGoneIsCancelledNamingTheStage) {
     EXPECT_EQ(status.message(), "cancelled during alignment");
 }
 
+// A gRPC client cancels at its own deadline, which reaches the server just before the server's
+// copy of it passes: that stop is the deadline's. A cancel well before the deadline is a cancel.
+TEST(StopTokenTest, CallerGoneAtItsDeadlineIsTheDeadlines) {
+    const StopToken at_deadline(Clock::now() + StopToken::kDeadlineSlack / 2, [] { return true; });
+    EXPECT_EQ(at_deadline.Check("estimate").code(), absl::StatusCode::kDeadlineExceeded);
+    const StopToken early(Clock::now() + StopToken::kDeadlineSlack * 20, [] { return true; });
+    EXPECT_EQ(early.Check("estimate").code(), absl::StatusCode::kCancelled);
+}
+
 // The first reason seen is kept: a call that was cancelled does not turn into one that ran out
 // of time, and the callback is not asked again.
 TEST(StopTokenTest, AStopStaysWithItsFirstReason) {
