@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
             ->default_val(5)
             ->check(CLI::Range(1, 100));
     }
-    auto* speed = app.add_subcommand("speed", "time per stage on a ~100k-point scan");
+    auto* speed = app.add_subcommand("speed", "time per stage at 3k, 20k, 100k and 1M points");
     auto* stereo_speed = app.add_subcommand("stereo-speed", "time per stage from two images");
     for (auto* cmd : {all, speed, stereo_speed}) {
         cmd->add_option("--reps", reps, "repetitions")->default_val(10)->check(CLI::Range(1, 1000));

@@ -1,8 +1,12 @@
 #include "bench/tables.hpp"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <sstream>
 #include <vector>
@@ -11,6 +15,7 @@
 #include "bench/trial.hpp"
 #include "core/common/timer.hpp"
 #include "core/io/cloud_codec.hpp"
+#include "core/pipeline/parallelism.hpp"
 
 namespace soilvol::bench {
 namespace {
@@ -308,60 +313,120 @@ std::string RobustnessTable(int seeds, std::ostream& kv) {
     return md.str();
 }
 
-std::string SpeedTable(int repetitions, std::ostream& kv) {
-    Setup setup;
-    setup.sensor = PaperSensor(setup.container);
-    // A denser sensor so that the scan holds about 100k points.
-    setup.sensor.angular_resolution_deg = 0.5;
-    std::size_t points = FilledScan(setup, 0.3, 1, 0).points.size();
-    setup.sensor.angular_resolution_deg *= std::sqrt(static_cast<double>(points) / 100000.0);
-    const RegisteredModel reg = RegisterEmpty(setup, 1);
-    if (!reg.model.ok())
-        return "## Speed\n\nmodel registration failed: " + reg.model.status().ToString() + "\n";
-    const sim::Scene scene = FilledScan(setup, 0.3, 1, 0);
-    const std::string ply = io::EncodePly(scene.points);
-    Stats decode, range, outliers, align, vol, total;
-    absl::StatusOr<pipeline::VolumeEstimate> last = absl::UnknownError("not run");
-    for (int r = 0; r < repetitions; ++r) {
-        Timer timer;
-        const auto decoded = io::DecodeCloud(ply);
-        decode.Add(timer.Lap());
-        if (!decoded.ok()) break;
-        last = Estimate(*reg.model, decoded->points, volume::Method::kHeightmap, 0.0);
-        if (!last.ok()) break;
-        range.Add(last->timings.range_ms);
-        outliers.Add(last->timings.outliers_ms);
-        align.Add(last->timings.align_ms);
-        vol.Add(last->timings.volume_ms);
-        total.Add(last->timings.total_ms);
+namespace {
+
+// Resident memory [KiB] from /proc/self/status ("VmRSS", "VmHWM"); 0 when unreadable.
+long StatusKib(const std::string& field) {
+    std::ifstream status("/proc/self/status");
+    std::string line;
+    while (std::getline(status, line)) {
+        if (line.rfind(field + ":", 0) == 0) return std::atol(line.c_str() + field.size() + 1);
     }
+    return 0;
+}
+
+// What `work` adds at its peak to the resident memory [MiB] (the kernel's high-water mark,
+// reset first); negative when the kernel cannot reset it.
+double PeakRssMib(const std::function<void()>& work) {
+    malloc_trim(0);  // freed memory goes back to the kernel: the call's pages count again
+    const long before = StatusKib("VmRSS");
+    std::ofstream("/proc/self/clear_refs") << "5";
+    const bool reset = StatusKib("VmHWM") <= before + 64;
+    work();
+    return reset ? static_cast<double>(StatusKib("VmHWM") - before) / 1024.0 : -1.0;
+}
+
+struct SpeedRow {
+    std::size_t points = 0;
+    Stats decode, range, outliers, align, vol, total, total_one_thread;
+    double peak_mib = 0.0;
+    absl::StatusOr<pipeline::VolumeEstimate> last = absl::UnknownError("not run");
+    double true_l = 0.0;
+};
+
+SpeedRow TimeSize(std::size_t wanted, int repetitions) {
+    SpeedRow row;
+    const SizedScene sized = SceneOfAbout(wanted);
+    row.points = sized.scene.points.size();
+    row.true_l = sized.scene.true_volume_m3 * kLitre;
+    if (!sized.reg.model.ok()) {
+        row.last = sized.reg.model.status();
+        return row;
+    }
+    const std::string ply = io::EncodePly(sized.scene.points);
+    for (const int threads : {2, 1}) {
+        pipeline::SetCallThreads(threads);
+        for (int r = 0; r < repetitions; ++r) {
+            Timer timer;
+            const auto decoded = io::DecodeCloud(ply);
+            const double decode_ms = timer.Lap();
+            if (!decoded.ok()) {
+                row.last = decoded.status();
+                return row;
+            }
+            row.last = Estimate(*sized.reg.model, decoded->points, volume::Method::kHeightmap, 0.0);
+            if (!row.last.ok()) return row;
+            const pipeline::StageTimings& t = row.last->timings;
+            if (threads == 1) {
+                row.total_one_thread.Add(t.total_ms);
+                continue;
+            }
+            row.decode.Add(decode_ms);
+            row.range.Add(t.range_ms);
+            row.outliers.Add(t.outliers_ms);
+            row.align.Add(t.align_ms);
+            row.vol.Add(t.volume_ms);
+            row.total.Add(t.total_ms);
+        }
+    }
+    pipeline::SetCallThreads(2);
+    row.peak_mib = PeakRssMib([&] {
+        const auto decoded = io::DecodeCloud(ply);
+        if (decoded.ok()) {
+            Estimate(*sized.reg.model, decoded->points, volume::Method::kHeightmap, 0.0)
+                .IgnoreError();
+        }
+    });
+    return row;
+}
+
+}  // namespace
+
+std::string SpeedTable(int repetitions, std::ostream& kv) {
     std::ostringstream md;
     md << "## Speed (2 cores, median of " << repetitions << " runs)\n\n"
-       << "Filled paper bucket scanned at "
-       << absl::StrFormat("%.3f", setup.sensor.angular_resolution_deg)
-       << " deg: " << scene.points.size() << " points (" << ply.size() / 1024
-       << " KiB binary PLY). "
-       << "Model registration took " << absl::StrFormat("%.0f", reg.register_ms) << " ms.\n\n"
-       << "| stage | ms |\n|---|---|\n"
-       << absl::StrFormat(
-              "| decode PLY | %.1f |\n| range cut | %.1f |\n| outlier removal (SOR) | %.1f |\n"
-              "| ICP alignment | %.1f |\n| grid + volume | %.1f |\n| **estimate total (SOR, ICP, "
-              "volume)** | **%.1f** |\n",
-              decode.Median(), range.Median(), outliers.Median(), align.Median(), vol.Median(),
-              total.Median());
-    if (last.ok()) {
+       << "Filled paper bucket (30 cm of soil) scanned by the paper's sensor made denser or "
+          "sparser for each size; the model registered from the usual 0.5 deg empty scan. "
+          "Server-side work on a decoded cloud, in the calling thread and OpenMP's (2 threads; "
+          "the last time columns with 1). Peak memory: what one call adds to the process's "
+          "resident set at its peak (decode included).\n\n"
+       << "| points | decode PLY | range cut | outliers (SOR) | ICP + gates | grid + volume | "
+          "**total** | ns/point | total, 1 thread | peak MiB | volume L (true) |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const std::size_t wanted :
+         {std::size_t{3000}, std::size_t{20000}, std::size_t{100000}, std::size_t{1000000}}) {
+        const SpeedRow row =
+            TimeSize(wanted, wanted >= 1000000 ? std::max(1, repetitions / 3) : repetitions);
+        if (!row.last.ok()) {
+            md << "| " << row.points << " | failed: " << row.last.status().message()
+               << " | | | | | | | | | |\n";
+            continue;
+        }
+        const double total = row.total.Median();
         md << absl::StrFormat(
-            "\nICP: %d iterations, fitness %.3f, rmse %.4f m. Volume %.1f L (true %.1f L).\n",
-            last->alignment.iterations, last->alignment.fitness, last->alignment.rmse_m,
-            last->volume_m3 * kLitre, scene.true_volume_m3 * kLitre);
-    } else {
-        md << "\nestimate failed: " << last.status() << "\n";
+            "| %zu | %.2f | %.2f | %.2f | %.2f | %.2f | **%.2f** | %.0f | %.2f | %.0f | %.1f "
+            "(%.1f) |\n",
+            row.points, row.decode.Median(), row.range.Median(), row.outliers.Median(),
+            row.align.Median(), row.vol.Median(), total,
+            1e6 * total / static_cast<double>(row.points), row.total_one_thread.Median(),
+            row.peak_mib, row.last->volume_m3 * kLitre, row.true_l);
+        kv << absl::StrFormat(
+            "speed points=%zu decode_ms=%.2f range_ms=%.2f outliers_ms=%.2f align_ms=%.2f "
+            "volume_ms=%.2f total_ms=%.2f total_1thread_ms=%.2f peak_mib=%.0f icp_iterations=%d\n",
+            row.points, row.decode.Median(), row.range.Median(), row.outliers.Median(),
+            row.align.Median(), row.vol.Median(), total, row.total_one_thread.Median(),
+            row.peak_mib, row.last->alignment.iterations);
     }
-    kv << absl::StrFormat(
-        "speed points=%zu decode_ms=%.2f range_ms=%.2f outliers_ms=%.2f align_ms=%.2f "
-        "volume_ms=%.2f total_ms=%.2f\n",
-        scene.points.size(), decode.Median(), range.Median(), outliers.Median(), align.Median(),
-        vol.Median(), total.Median());
     md << "\n";
     return md.str();
 }

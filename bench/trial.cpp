@@ -1,5 +1,7 @@
 #include "bench/trial.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "core/common/timer.hpp"
@@ -64,6 +66,25 @@ sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t
     spec.soil_seed = seed;
     spec.scan_seed = seed * 1000 + 1 + scan_index;
     return sim::SimulateScene(spec);
+}
+
+SizedScene SceneOfAbout(std::size_t points) {
+    Setup setup;
+    setup.sensor = PaperSensor(setup.container);
+    SizedScene out{RegisterEmpty(setup, 1), {}, 0.0};
+    // Returns grow with the inverse square of the angular step: two corrections land within
+    // a few %.
+    constexpr int kPasses = 3;
+    for (int pass = 0; pass < kPasses; ++pass) {
+        out.scene = FilledScan(setup, 0.3, 1, 0);
+        const double ratio =
+            static_cast<double>(std::max<std::size_t>(out.scene.points.size(), 1)) /
+            static_cast<double>(points);
+        if (pass + 1 == kPasses || std::abs(ratio - 1.0) < 0.03) break;
+        setup.sensor.angular_resolution_deg *= std::sqrt(ratio);
+    }
+    out.angular_resolution_deg = setup.sensor.angular_resolution_deg;
+    return out;
 }
 
 absl::StatusOr<pipeline::VolumeEstimate> Estimate(const model::ContainerModel& model,

@@ -45,6 +45,16 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed);
 /// A filled scan of the same container (new pose, new noise) with its true volume.
 sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t scan_index);
 
+/// A filled paper bucket (30 cm of soil) scanned by the paper's sensor made denser or sparser
+/// until the scan holds about `points` returns (within a few %), and the model registered from
+/// its usual 0.5 deg empty scan: the speed benchmarks' scenes.
+struct SizedScene {
+    RegisteredModel reg;
+    sim::Scene scene;
+    double angular_resolution_deg = 0.0;
+};
+SizedScene SceneOfAbout(std::size_t points);
+
 /// Estimates with `method` and `cell_m` (0 = automatic; the paper method needs a size).
 absl::StatusOr<pipeline::VolumeEstimate> Estimate(const model::ContainerModel& model,
                                                   const Cloud& scan, volume::Method method,

@@ -64,12 +64,17 @@ struct ContentColumn {
     double top_m = 0.05;
     double wall_band_m = 0.05;
     double margin_m = 0.0;
+    /// Heights first, then the polygon, its edge distance only where it decides (a scan's
+    /// every point passes through here).
     bool Holds(const Eigen::Vector3d& p) const {
+        const bool low = p.z() < -wall_band_m;
+        const bool under_top = p.z() < top_m;
+        if (!low && !under_top) return false;
         const Eigen::Vector2d xy = p.head<2>();
         const bool inside = polygon.Contains(xy);
-        const double edge = polygon.DistanceToBoundary(xy);
-        if (p.z() < -wall_band_m && (inside || edge < wall_band_m)) return true;
-        return inside && p.z() < top_m && (margin_m <= 0.0 || edge > margin_m);
+        if (low && (inside || polygon.DistanceToBoundary(xy) < wall_band_m)) return true;
+        if (!inside || !under_top) return false;
+        return margin_m <= 0.0 || polygon.DistanceToBoundary(xy) > margin_m;
     }
 };
 

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/cloud/candidate_block.hpp"
 #include "core/cloud/voxel_grid.hpp"
 
 namespace soilvol::cloud {
@@ -19,29 +20,21 @@ LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_ne
     std::vector<uint8_t> kept(points.size(), 0);
 #pragma omp parallel
     {
-        std::vector<uint32_t> candidates, found;
+        CandidateBlock block;
 #pragma omp for schedule(dynamic, 16)
         for (long v = 0; v < num_voxels; ++v) {
             if (stop.StopRequested()) continue;
-            grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), 1, candidates);
             const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
+            grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), 1, block.indices());
+            block.Load(points, points[grid.Order()[begin]]);
             for (std::size_t o = begin; o < end; ++o) {
                 const uint32_t k = grid.Order()[o];
-                const Eigen::Vector3f& p = points[k];
-                found.clear();
-                for (const uint32_t j : candidates) {
-                    if ((points[j] - p).squaredNorm() <= r2) found.push_back(j);
-                }
-                if (static_cast<int>(found.size()) < min_neighbors) continue;
-                Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-                for (const uint32_t j : found) mean += points[j].cast<double>();
-                mean /= static_cast<double>(found.size());
-                Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-                for (const uint32_t j : found) {
-                    const Eigen::Vector3d d = points[j].cast<double>() - mean;
-                    cov += d * d.transpose();
-                }
-                means[k] = mean.cast<float>();
+                const Moments m = block.Within(points[k], r2);
+                if (m.count < min_neighbors) continue;
+                const double n = static_cast<double>(m.count);
+                const Eigen::Vector3d offset = m.sum / n;
+                means[k] = (points[k].cast<double>() + offset).cast<float>();
+                const Eigen::Matrix3d cov = m.outer - n * offset * offset.transpose();
                 // Closed form: a surface patch's smallest eigenvalue stands well apart.
                 Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
                 solver.computeDirect(cov);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "core/cloud/candidate_block.hpp"
 #include "core/cloud/voxel_grid.hpp"
 
 namespace soilvol::cloud {
@@ -42,26 +43,26 @@ double NeighborVoxelSize(const Cloud& points, int k) {
 // Mean k-NN distance of `i` from the candidates, all points within `h` of it; negative when
 // fewer than k lie within h (then the k nearest are not proven to be among them), or, with
 // `bound`, the lower bound that counts each missing neighbour at distance h.
-float MeanFromCandidates(const Cloud& points, uint32_t i, const std::vector<uint32_t>& candidates,
-                         int k, double h, bool bound, std::vector<float>& scratch) {
+float MeanFromCandidates(const Cloud& points, uint32_t i, const CandidateBlock& block, int k,
+                         double h, bool bound, std::vector<float>& d2, std::vector<float>& near) {
     // Only candidates within h can be proven to be among the k nearest.
-    scratch.clear();
-    const Eigen::Vector3f& p = points[i];
+    block.SquaredDistances(points[i], d2);
+    near.clear();
     const auto h2 = static_cast<float>(h * h);
-    for (const uint32_t j : candidates) {
-        const float d2 = (points[j] - p).squaredNorm();
-        if (d2 <= h2 && j != i) scratch.push_back(d2);
+    const std::vector<uint32_t>& index = block.index();
+    for (std::size_t j = 0; j < d2.size(); ++j) {
+        if (d2[j] <= h2 && index[j] != i) near.push_back(d2[j]);
     }
     const auto kk = static_cast<std::size_t>(k);
-    if (scratch.size() < kk) {
+    if (near.size() < kk) {
         if (!bound) return -1.0f;
-        double sum = static_cast<double>(kk - scratch.size()) * h;
-        for (const float d2 : scratch) sum += std::sqrt(static_cast<double>(d2));
+        double sum = static_cast<double>(kk - near.size()) * h;
+        for (const float d : near) sum += std::sqrt(static_cast<double>(d));
         return static_cast<float>(sum / static_cast<double>(k));
     }
-    std::nth_element(scratch.begin(), scratch.begin() + static_cast<long>(kk - 1), scratch.end());
+    std::nth_element(near.begin(), near.begin() + static_cast<long>(kk - 1), near.end());
     double sum = 0.0;
-    for (std::size_t j = 0; j < kk; ++j) sum += std::sqrt(static_cast<double>(scratch[j]));
+    for (std::size_t j = 0; j < kk; ++j) sum += std::sqrt(static_cast<double>(near[j]));
     return static_cast<float>(sum / static_cast<double>(k));
 }
 
@@ -80,8 +81,8 @@ std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_thr
     for (const int reach : {1, 2}) {
 #pragma omp parallel num_threads(threads)
         {
-            std::vector<uint32_t> candidates;
-            std::vector<float> scratch;
+            CandidateBlock block;
+            std::vector<float> d2, near;
 #pragma omp for schedule(dynamic, 32)
             for (long v = 0; v < num_voxels; ++v) {
                 if (stop.StopRequested()) continue;
@@ -90,12 +91,13 @@ std::vector<float> MeanNeighborDistances(const Cloud& points, int k, int num_thr
                 for (std::size_t o = begin; o < end && !needed; ++o)
                     needed = mean[grid.Order()[o]] < 0.0f;
                 if (!needed) continue;
-                grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), reach, candidates);
+                grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), reach, block.indices());
+                block.Load(points, points[grid.Order()[begin]]);
                 for (std::size_t o = begin; o < end; ++o) {
                     const uint32_t i = grid.Order()[o];
                     if (mean[i] >= 0.0f) continue;
-                    mean[i] = MeanFromCandidates(points, i, candidates, k, reach * h, reach == 2,
-                                                 scratch);
+                    mean[i] =
+                        MeanFromCandidates(points, i, block, k, reach * h, reach == 2, d2, near);
                 }
             }
         }

@@ -6,37 +6,63 @@
 namespace soilvol::cloud {
 namespace {
 
-constexpr int kBits = 21;
-constexpr int64_t kOffset = int64_t{1} << (kBits - 1);
-constexpr uint64_t kMask = (uint64_t{1} << kBits) - 1;
+constexpr int kMaxBits = 21;
+constexpr int kMaxVoxels = (1 << kMaxBits) - 1;
+constexpr int kRadixBits = 11;
 
-uint64_t Pack(const Eigen::Vector3i& c) {
-    return (static_cast<uint64_t>(c.x() + kOffset) & kMask) << (2 * kBits) |
-           (static_cast<uint64_t>(c.y() + kOffset) & kMask) << kBits |
-           (static_cast<uint64_t>(c.z() + kOffset) & kMask);
+int BitsFor(int count) {
+    int bits = 0;
+    while ((1 << bits) < count) ++bits;
+    return bits;
 }
 
-Eigen::Vector3i Unpack(uint64_t key) {
-    return {static_cast<int>(static_cast<int64_t>((key >> (2 * kBits)) & kMask) - kOffset),
-            static_cast<int>(static_cast<int64_t>((key >> kBits) & kMask) - kOffset),
-            static_cast<int>(static_cast<int64_t>(key & kMask) - kOffset)};
+// LSD radix sort of (key, index) pairs on the low `bits` bits of the key: stable, a histogram
+// and a scatter per 11-bit digit.
+void RadixSort(std::vector<std::pair<uint64_t, uint32_t>>& keyed, int bits) {
+    std::vector<std::pair<uint64_t, uint32_t>> other(keyed.size());
+    std::vector<std::size_t> count(std::size_t{1} << kRadixBits);
+    for (int shift = 0; shift < bits; shift += kRadixBits) {
+        std::fill(count.begin(), count.end(), 0);
+        const uint64_t mask = (uint64_t{1} << kRadixBits) - 1;
+        for (const auto& k : keyed) ++count[(k.first >> shift) & mask];
+        std::size_t sum = 0;
+        for (std::size_t& c : count) {
+            const std::size_t n = c;
+            c = sum;
+            sum += n;
+        }
+        for (const auto& k : keyed) other[count[(k.first >> shift) & mask]++] = k;
+        keyed.swap(other);
+    }
 }
 
 }  // namespace
 
 VoxelGrid::VoxelGrid(const Cloud& points, double voxel_size_m)
     : points_(points), voxel_size_m_(voxel_size_m), origin_(Eigen::Vector3d::Zero()) {
-    if (!points.empty()) {
-        Eigen::Vector3f lo = points.front();
-        for (const auto& p : points) lo = lo.cwiseMin(p);
-        origin_ = lo.cast<double>();
+    if (points.empty()) {
+        starts_.push_back(0);
+        return;
     }
-    // Coordinates are relative to the cloud's minimum, so 21 bits per axis cover 2^21 voxels.
+    Eigen::Vector3f lo = points.front(), hi = points.front();
+    for (const auto& p : points) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+    }
+    origin_ = lo.cast<double>();
+    for (int axis = 0; axis < 3; ++axis) {
+        const double span = (static_cast<double>(hi[axis]) - origin_[axis]) / voxel_size_m_;
+        dims_[axis] = static_cast<int>(std::min(std::floor(span), double{kMaxVoxels - 1})) + 1;
+    }
+    y_bits_ = BitsFor(dims_.y());
+    z_bits_ = BitsFor(dims_.z());
+    const int bits = BitsFor(dims_.x()) + y_bits_ + z_bits_;
     std::vector<std::pair<uint64_t, uint32_t>> keyed(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) {
-        keyed[i] = {Pack(CoordOf(points[i])), static_cast<uint32_t>(i)};
+        keyed[i] = {Pack(CoordOf(points[i]).cwiseMax(0).cwiseMin(dims_ - Eigen::Vector3i::Ones())),
+                    static_cast<uint32_t>(i)};
     }
-    std::sort(keyed.begin(), keyed.end());
+    RadixSort(keyed, bits);
     order_.resize(keyed.size());
     starts_.reserve(keyed.size() / 2 + 2);
     for (std::size_t i = 0; i < keyed.size(); ++i) {
@@ -49,17 +75,34 @@ VoxelGrid::VoxelGrid(const Cloud& points, double voxel_size_m)
     starts_.push_back(keyed.size());
 }
 
-Eigen::Vector3i VoxelGrid::Coord(std::size_t v) const { return Unpack(keys_[v]); }
+uint64_t VoxelGrid::Pack(const Eigen::Vector3i& c) const {
+    return (static_cast<uint64_t>(c.x()) << (y_bits_ + z_bits_)) |
+           (static_cast<uint64_t>(c.y()) << z_bits_) | static_cast<uint64_t>(c.z());
+}
+
+bool VoxelGrid::InRange(const Eigen::Vector3i& c) const {
+    return (c.array() >= 0).all() && (c.array() < dims_.array()).all();
+}
+
+Eigen::Vector3i VoxelGrid::Coord(std::size_t v) const {
+    const uint64_t key = keys_[v];
+    const uint64_t y_mask = (uint64_t{1} << y_bits_) - 1;
+    const uint64_t z_mask = (uint64_t{1} << z_bits_) - 1;
+    return {static_cast<int>(key >> (y_bits_ + z_bits_)),
+            static_cast<int>((key >> z_bits_) & y_mask), static_cast<int>(key & z_mask)};
+}
 
 Eigen::Vector3i VoxelGrid::CoordOf(const Eigen::Vector3f& p) const {
     const Eigen::Vector3d q = (p.cast<double>() - origin_) / voxel_size_m_;
-    const double limit = static_cast<double>(kOffset - 2);
-    return {static_cast<int>(std::clamp(std::floor(q.x()), -limit, limit)),
-            static_cast<int>(std::clamp(std::floor(q.y()), -limit, limit)),
-            static_cast<int>(std::clamp(std::floor(q.z()), -limit, limit))};
+    // Far outside the grid is as good as just outside it; int stays in range.
+    constexpr double kLimit = double{1 << 30};
+    return {static_cast<int>(std::clamp(std::floor(q.x()), -kLimit, kLimit)),
+            static_cast<int>(std::clamp(std::floor(q.y()), -kLimit, kLimit)),
+            static_cast<int>(std::clamp(std::floor(q.z()), -kLimit, kLimit))};
 }
 
 int64_t VoxelGrid::Find(const Eigen::Vector3i& c) const {
+    if (!InRange(c)) return -1;
     const uint64_t key = Pack(c);
     const auto it = std::lower_bound(keys_.begin(), keys_.end(), key);
     if (it == keys_.end() || *it != key) return -1;
@@ -68,8 +111,13 @@ int64_t VoxelGrid::Find(const Eigen::Vector3i& c) const {
 
 std::pair<std::size_t, std::size_t> VoxelGrid::ColumnRange(const Eigen::Vector3i& c,
                                                            int count) const {
-    const uint64_t lo = Pack(c);
-    const uint64_t hi = Pack(c + Eigen::Vector3i(0, 0, count - 1));
+    const int z0 = std::max(c.z(), 0);
+    const int z1 = std::min(c.z() + count - 1, dims_.z() - 1);
+    if (c.x() < 0 || c.y() < 0 || c.x() >= dims_.x() || c.y() >= dims_.y() || z0 > z1) {
+        return {0, 0};
+    }
+    const uint64_t lo = Pack({c.x(), c.y(), z0});
+    const uint64_t hi = Pack({c.x(), c.y(), z1});
     const auto first = std::lower_bound(keys_.begin(), keys_.end(), lo);
     auto last = first;
     while (last != keys_.end() && *last <= hi) ++last;

@@ -9,7 +9,9 @@
 namespace soilvol::cloud {
 
 /// Points bucketed into cubic voxels of `voxel_size_m`, sorted by voxel so that each voxel is
-/// one contiguous range of `Order()`. Lookups are by integer voxel coordinates.
+/// one contiguous range of `Order()`. Lookups are by integer voxel coordinates, counted from
+/// the cloud's lowest corner (each axis holds at most 2^21 voxels; farther points share the
+/// last). Building costs a few linear passes (a radix sort on keys as wide as the extent).
 class VoxelGrid {
   public:
     /// Buckets `points` (kept by reference; must outlive the grid). `voxel_size_m` > 0.
@@ -36,9 +38,16 @@ class VoxelGrid {
     Eigen::Vector3i CoordOf(const Eigen::Vector3f& p) const;
 
   private:
+    // Key of in-range coordinates: x, y, z in bit fields just wide enough for the cloud's
+    // extent, x most significant (each (x, y) column is one run of ascending keys).
+    uint64_t Pack(const Eigen::Vector3i& c) const;
+    bool InRange(const Eigen::Vector3i& c) const;
+
     const Cloud& points_;
     double voxel_size_m_;
     Eigen::Vector3d origin_;
+    Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();  // voxels along each axis
+    int y_bits_ = 0, z_bits_ = 0;
     std::vector<uint64_t> keys_;  // one per occupied voxel, ascending
     std::vector<std::size_t> starts_;
     std::vector<uint32_t> order_;

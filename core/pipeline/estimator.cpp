@@ -14,38 +14,6 @@
 namespace soilvol::pipeline {
 namespace {
 
-absl::StatusOr<volume::VolumeResult> Integrate(const model::ContainerModel& model,
-                                               const Cloud& aligned, const Pose& T_scan_container,
-                                               const EstimateConfig& config,
-                                               const StopToken& stop) {
-    const Polygon2d& opening = model.opening.polygon;
-    if (config.method == volume::Method::kPaper) {
-        const WeightedCloud column = volume::SelectColumn(WeightedCloud{aligned, {}}, opening,
-                                                          -model.depth_m, config.heightmap);
-        return volume::PaperVolume(model.inside, column.points, opening, config.paper, stop);
-    }
-    // Returns of the container's own rim and outside are not contents; every other return
-    // weighs by what it tells of the height under it, seen along its ray.
-    const WeightedCloud selected =
-        volume::SelectColumn(WeightedCloud{aligned, {}}, opening, -model.depth_m, config.heightmap);
-    SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
-    WeightedCloud column = model::RemoveStructure(model, selected);
-    const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
-    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
-    column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
-                                       config.heightmap.ray_weights, stop);
-    column.sensor = sensor;
-    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
-    if (!model.cache)
-        return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap, stop);
-    model::ModelCache& cache = *model.cache;
-    const volume::EmptySide empty{cache.EmptyMinZ(model), [&](const volume::Grid& grid) {
-                                      return cache.EmptySurface(model, grid, config.heightmap,
-                                                                stop);
-                                  }};
-    return volume::HeightmapVolume(empty, column, opening, config.heightmap, stop);
-}
-
 // The pose is wrong when the scan lies below the empty container over much of the opening.
 absl::Status CheckContents(const volume::VolumeResult& volume, const EstimateConfig& config) {
     const int both = volume.cells.both_measured;
@@ -153,6 +121,59 @@ absl::Status CheckUncertainty(const VolumeEstimate& estimate, const model::Conta
 
 }  // namespace
 
+absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, const Cloud& scan,
+                                        const EstimateConfig& config, const StopToken& stop) {
+    // Sec. 3.3: align the model's outside to the scan.
+    ScanAlignment out;
+    const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
+    out.alignment = model::AlignModel(model, scan, initial, config.align, stop);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("alignment"));
+    if (!config.initial_T_scan_container && config.method == volume::Method::kHeightmap &&
+        config.global_search_below_fitness >= 0.0 &&
+        (out.alignment.fitness < config.global_search_below_fitness ||
+         !align::CheckAlignment(out.alignment, config.gate).ok())) {
+        SOILVOL_ASSIGN_OR_RETURN(
+            out.alignment,
+            SearchWider(model, scan, initial, std::move(out.alignment), config, stop));
+    }
+    SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(out.alignment, config.gate));
+    SOILVOL_ASSIGN_OR_RETURN(out.seen_through, CheckFreeSpace(model, scan, out.alignment, config));
+    return out;
+}
+
+absl::StatusOr<volume::VolumeResult> IntegrateVolume(const model::ContainerModel& model,
+                                                     const Cloud& aligned,
+                                                     const Pose& T_scan_container,
+                                                     const EstimateConfig& config,
+                                                     const StopToken& stop) {
+    const Polygon2d& opening = model.opening.polygon;
+    if (config.method == volume::Method::kPaper) {
+        const WeightedCloud column = volume::SelectColumn(WeightedCloud{aligned, {}}, opening,
+                                                          -model.depth_m, config.heightmap);
+        return volume::PaperVolume(model.inside, column.points, opening, config.paper, stop);
+    }
+    // Returns of the container's own rim and outside are not contents; every other return
+    // weighs by what it tells of the height under it, seen along its ray.
+    const WeightedCloud selected =
+        volume::SelectColumn(WeightedCloud{aligned, {}}, opening, -model.depth_m, config.heightmap);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
+    WeightedCloud column = model::RemoveStructure(model, selected);
+    const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
+    column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
+                                       config.heightmap.ray_weights, stop);
+    column.sensor = sensor;
+    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
+    if (!model.cache)
+        return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap, stop);
+    model::ModelCache& cache = *model.cache;
+    const volume::EmptySide empty{cache.EmptyMinZ(model), [&](const volume::Grid& grid) {
+                                      return cache.EmptySurface(model, grid, config.heightmap,
+                                                                stop);
+                                  }};
+    return volume::HeightmapVolume(empty, column, opening, config.heightmap, stop);
+}
+
 absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
                                               const EstimateConfig& config, const StopToken& stop) {
     if (scan.empty()) return absl::InvalidArgumentError("scan has no points");
@@ -170,28 +191,17 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
         return absl::InvalidArgumentError("no scan point is left after range and outlier removal");
     }
     timer.Lap();
-    // Sec. 3.3: align the model's outside to the scan.
-    const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
-    estimate.alignment = model::AlignModel(model, pre.points, initial, config.align, stop);
-    SOILVOL_RETURN_IF_ERROR(stop.Check("alignment"));
-    if (!config.initial_T_scan_container && config.method == volume::Method::kHeightmap &&
-        config.global_search_below_fitness >= 0.0 &&
-        (estimate.alignment.fitness < config.global_search_below_fitness ||
-         !align::CheckAlignment(estimate.alignment, config.gate).ok())) {
-        SOILVOL_ASSIGN_OR_RETURN(
-            estimate.alignment,
-            SearchWider(model, pre.points, initial, std::move(estimate.alignment), config, stop));
-    }
-    SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(estimate.alignment, config.gate));
-    SOILVOL_ASSIGN_OR_RETURN(estimate.seen_through,
-                             CheckFreeSpace(model, pre.points, estimate.alignment, config));
+    SOILVOL_ASSIGN_OR_RETURN(ScanAlignment aligned, AlignScan(model, pre.points, config, stop));
+    estimate.alignment = std::move(aligned.alignment);
+    estimate.seen_through = aligned.seen_through;
     estimate.timings.align_ms = timer.Lap();  // the gate belongs to the alignment
     // Sec. 3.4: grid and integrate in the container frame.
     SOILVOL_RETURN_IF_ERROR(stop.Check("volume integration"));
-    const Cloud aligned = model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container);
     SOILVOL_ASSIGN_OR_RETURN(
         estimate.volume,
-        Integrate(model, aligned, estimate.alignment.T_scan_container, config, stop));
+        IntegrateVolume(model,
+                        model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container),
+                        estimate.alignment.T_scan_container, config, stop));
     estimate.timings.volume_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(CheckContents(estimate.volume, config));
     estimate.volume_m3 = estimate.volume.volume_m3;

@@ -75,6 +75,26 @@ struct VolumeEstimate {
     std::size_t preprocessed_points = 0;
 };
 
+/// The alignment of the model to a preprocessed scan that passed every gate.
+struct ScanAlignment {
+    align::AlignResult alignment;
+    align::SeenThrough seen_through;
+};
+
+/// Sec. 3.3: aligns the model's outside to the preprocessed scan (from the configured or the
+/// registered pose, checked against a global search when configured) and refuses a bad
+/// alignment (FailedPrecondition with the figures).
+absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, const Cloud& scan,
+                                        const EstimateConfig& config, const StopToken& stop = {});
+
+/// Sec. 3.4: the contents of the preprocessed scan in the container frame (`aligned`, taken
+/// there by `T_scan_container`) by the configured method.
+absl::StatusOr<volume::VolumeResult> IntegrateVolume(const model::ContainerModel& model,
+                                                     const Cloud& aligned,
+                                                     const Pose& T_scan_container,
+                                                     const EstimateConfig& config,
+                                                     const StopToken& stop = {});
+
 /// Sec. 3.1-3.4 in order: preprocess the scan, align the model's outside to it, refuse a bad
 /// alignment (FailedPrecondition with the figures), integrate the soil with the chosen method.
 /// InvalidArgument for an empty scan; DeadlineExceeded or Cancelled, naming the stage, once

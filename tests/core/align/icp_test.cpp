@@ -107,6 +107,29 @@ TEST(IcpTest, ReturnsInTheContentColumnAreNotContainer) {
     EXPECT_GT(with.fitness, 0.8);
 }
 
+// The column's rule, as its documentation states it: over the opening below the top (but the
+// margin along the edge), and the walls' band below the opening.
+TEST(IcpTest, ContentColumnHoldsWhatItsRuleSays) {
+    const Polygon2d polygon({{-0.6, -0.4}, {0.6, -0.4}, {0.7, 0.4}, {-0.5, 0.5}});
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> xy(-0.9, 0.9), z(-0.4, 0.2);
+    for (const double margin : {0.0, 0.03}) {
+        const ContentColumn column{polygon, 0.05, 0.05, margin};
+        int held = 0;
+        for (int i = 0; i < 20000; ++i) {
+            const Eigen::Vector3d p(xy(rng), xy(rng), z(rng));
+            const bool inside = polygon.Contains(p.head<2>());
+            const double edge = polygon.DistanceToBoundary(p.head<2>());
+            const bool wall = p.z() < -0.05 && (inside || edge < 0.05);
+            const bool over = inside && p.z() < 0.05 && (margin <= 0.0 || edge > margin);
+            ASSERT_EQ(column.Holds(p), wall || over) << p.transpose() << " margin " << margin;
+            held += wall || over ? 1 : 0;
+        }
+        EXPECT_GT(held, 2000);
+        EXPECT_LT(held, 18000);
+    }
+}
+
 // The scan of a moved object and where ICP starts: the object's pose before the move.
 struct MovedObject {
     Source source;

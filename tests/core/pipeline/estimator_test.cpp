@@ -355,7 +355,9 @@ TEST_F(EstimatorStopTest, CancelAtTheThirdLookEndsInPreprocessing) {
     const auto e = EstimateVolume(*model_, scene_->points, EstimateConfig{}, cancel.token());
     EXPECT_EQ(e.status().code(), absl::StatusCode::kCancelled);
     EXPECT_EQ(e.status().message(), "cancelled during preprocessing");
-    EXPECT_EQ(cancel.looks(), 3);
+    // The filter's other OpenMP thread may have looked once more before the stop was seen.
+    EXPECT_GE(cancel.looks(), 3);
+    EXPECT_LE(cancel.looks(), 4);
 }
 
 // Wherever the caller goes away, the estimate ends cancelled: never with a volume, nor with the
