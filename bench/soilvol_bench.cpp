@@ -127,6 +127,7 @@ int main(int argc, char** argv) {
                       app.add_subcommand("families", "every container family, random shapes"),
                       app.add_subcommand("moves", "large container moves, with and without a pose"),
                       app.add_subcommand("robustness", "sensor and set-up variations"),
+                      app.add_subcommand("density", "accuracy from 20k to 1M points a scan"),
                       app.add_subcommand("stereo", "rendered stereo pairs at several fills")}) {
         cmd->add_option("--seeds", seeds, "seeds per row")
             ->default_val(5)
@@ -183,6 +184,7 @@ int main(int argc, char** argv) {
     if (name == "moves" || name == "all") md << MovesTable(std::min(seeds, 2), std::cout);
     if (name == "robustness" || name == "all") md << RobustnessTable(seeds, std::cout);
     if (name == "speed" || name == "all") md << SpeedTable(reps, std::cout);
+    if (name == "density" || name == "all") md << DensityTable(std::min(seeds, 3), std::cout);
     if (name == "stereo" || name == "all") md << StereoFillTable(std::min(seeds, 3), std::cout);
     if (name == "stereo-speed" || name == "all") md << StereoSpeedTable(reps, std::cout);
     if (name != "all") {

@@ -17,5 +17,8 @@ std::string ContainerTable(int seeds, std::ostream& kv);
 std::string RobustnessTable(int seeds, std::ostream& kv);
 /// Time per stage on a dense ~100k-point scan.
 std::string SpeedTable(int repetitions, std::ostream& kv);
+/// The filled paper bucket scanned at 20k to 1M points (the speed table's scenes), several
+/// seeds: accuracy against scan density, automatic and fixed cells.
+std::string DensityTable(int seeds, std::ostream& kv);
 
 }  // namespace soilvol::bench

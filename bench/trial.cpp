@@ -68,15 +68,15 @@ sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t
     return sim::SimulateScene(spec);
 }
 
-SizedScene SceneOfAbout(std::size_t points) {
+SizedScene SceneOfAbout(std::size_t points, uint64_t seed) {
     Setup setup;
     setup.sensor = PaperSensor(setup.container);
-    SizedScene out{RegisterEmpty(setup, 1), {}, 0.0};
+    SizedScene out{RegisterEmpty(setup, seed), {}, 0.0};
     // Returns grow with the inverse square of the angular step: two corrections land within
     // a few %.
     constexpr int kPasses = 3;
     for (int pass = 0; pass < kPasses; ++pass) {
-        out.scene = FilledScan(setup, 0.3, 1, 0);
+        out.scene = FilledScan(setup, 0.3, seed, 0);
         const double ratio =
             static_cast<double>(std::max<std::size_t>(out.scene.points.size(), 1)) /
             static_cast<double>(points);

@@ -53,7 +53,7 @@ struct SizedScene {
     sim::Scene scene;
     double angular_resolution_deg = 0.0;
 };
-SizedScene SceneOfAbout(std::size_t points);
+SizedScene SceneOfAbout(std::size_t points, uint64_t seed = 1);
 
 /// Estimates with `method` and `cell_m` (0 = automatic; the paper method needs a size).
 absl::StatusOr<pipeline::VolumeEstimate> Estimate(const model::ContainerModel& model,
