@@ -35,6 +35,11 @@ struct Stats {
         for (const double v : values) s += std::abs(v);
         return values.empty() ? 0.0 : s / static_cast<double>(values.size());
     }
+    double MaxAbs() const {
+        double m = 0.0;
+        for (const double v : values) m = std::max(m, std::abs(v));
+        return m;
+    }
     double Median() const {
         std::vector<double> v = values;
         if (v.empty()) return 0.0;
@@ -475,8 +480,7 @@ std::string DensityTable(int seeds, std::ostream& kv) {
                     "density points=%zu seed_cell=%.2f cell_m=%.4f error_l=%.2f sigma_l=%.2f\n",
                     points, cell, e->volume.grid.cell_m, err, e->uncertainty_m3 * kLitre);
             }
-            double max_abs = 0.0;
-            for (const double v : error.values) max_abs = std::max(max_abs, std::abs(v));
+            const double max_abs = error.MaxAbs();
             md << absl::StrFormat(
                 "| %zu | %s | %.3f | %+.1f | %.1f | %.2f | %d/%zu | %+.1f | %.2f | %d/%d |\n",
                 points, cell > 0.0 ? "10 cm" : "automatic", cells.Median(), error.Mean(), max_abs,
