@@ -51,10 +51,11 @@ Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial
         cropped.push_back(p);
     }
     if (stop.StopRequested()) return {};
-    Cloud voxels = cloud::VoxelDownsample(cropped, voxel_m);
-    if (config.smoothing_radius_m <= 0.0) return {std::move(voxels), {}};
-    cloud::LocalSurface surface = cloud::SmoothLocalSurface(voxels, config.smoothing_radius_m,
-                                                            cloud::kMinSurfaceNeighbors, stop);
+    if (config.smoothing_radius_m <= 0.0) return {cloud::VoxelDownsample(cropped, voxel_m), {}};
+    // Each voxel weighs by its returns: the means are the points' own at any scan density.
+    const cloud::VoxelCentroids voxels = cloud::CentroidsOf(cropped, voxel_m);
+    cloud::LocalSurface surface = cloud::SmoothLocalSurface(
+        voxels.points, voxels.counts, config.smoothing_radius_m, cloud::kMinSurfaceNeighbors, stop);
     return {std::move(surface.points), std::move(surface.normals)};
 }
 

@@ -2,17 +2,20 @@
 
 namespace soilvol::cloud {
 
-void CandidateBlock::Load(const Cloud& points, const Eigen::Vector3f& anchor) {
+void CandidateBlock::Load(const Cloud& points, const Eigen::Vector3f& anchor,
+                          const std::vector<float>& weights) {
     anchor_ = anchor;
     const std::size_t n = index_.size();
     x_.resize(n);
     y_.resize(n);
     z_.resize(n);
+    w_.resize(n);
     for (std::size_t j = 0; j < n; ++j) {
         const Eigen::Vector3f q = points[index_[j]] - anchor;
         x_[j] = q.x();
         y_[j] = q.y();
         z_[j] = q.z();
+        w_[j] = weights.empty() ? 1.0f : weights[index_[j]];
     }
 }
 
@@ -22,15 +25,18 @@ Moments CandidateBlock::Within(const Eigen::Vector3f& p, float radius2) const {
     const float* x = x_.data();
     const float* y = y_.data();
     const float* z = z_.data();
+    const float* weight = w_.data();
     const auto n = static_cast<long>(x_.size());
-    float count = 0.0f, sx = 0.0f, sy = 0.0f, sz = 0.0f;
+    float count = 0.0f, total = 0.0f, sx = 0.0f, sy = 0.0f, sz = 0.0f;
     float sxx = 0.0f, sxy = 0.0f, sxz = 0.0f, syy = 0.0f, syz = 0.0f, szz = 0.0f;
-    // Branch-free: each point weighs 1 inside the ball and 0 outside.
-#pragma omp simd reduction(+ : count, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz)
+    // Branch-free: each point counts inside the ball and not outside.
+#pragma omp simd reduction(+ : count, total, sx, sy, sz, sxx, sxy, sxz, syy, syz, szz)
     for (long j = 0; j < n; ++j) {
         const float dx = x[j] - px, dy = y[j] - py, dz = z[j] - pz;
-        const float w = static_cast<float>(dx * dx + dy * dy + dz * dz <= radius2);
-        count += w;
+        const float in = static_cast<float>(dx * dx + dy * dy + dz * dz <= radius2);
+        const float w = in * weight[j];
+        count += in;
+        total += w;
         sx += w * dx;
         sy += w * dy;
         sz += w * dz;
@@ -43,6 +49,7 @@ Moments CandidateBlock::Within(const Eigen::Vector3f& p, float radius2) const {
     }
     Moments m;
     m.count = static_cast<int>(count);
+    m.weight = static_cast<double>(total);
     m.sum = Eigen::Vector3f(sx, sy, sz).cast<double>();
     m.outer << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
     return m;

@@ -10,9 +10,10 @@ namespace soilvol::cloud {
 /// Sums over the points of a neighbourhood, relative to its query point: what a mean and a
 /// covariance need.
 struct Moments {
-    int count = 0;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();    ///< of (q - p)
-    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();  ///< of (q - p)(q - p)'
+    int count = 0;                                    ///< points
+    double weight = 0.0;                              ///< sum of their weights
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();    ///< of w (q - p)
+    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();  ///< of w (q - p)(q - p)'
 };
 
 /// The points of a voxel block (their indices into a cloud) with their coordinates relative to
@@ -25,17 +26,20 @@ class CandidateBlock {
     std::vector<uint32_t>& indices() { return index_; }
     const std::vector<uint32_t>& index() const { return index_; }
     /// Loads the coordinates of `indices()` from `points`, relative to `anchor` (a point near
-    /// the block's queries: float stays precise over a neighbourhood).
-    void Load(const Cloud& points, const Eigen::Vector3f& anchor);
+    /// the block's queries: float stays precise over a neighbourhood), with their `weights`
+    /// (one per point of `points`; empty: each weighs 1).
+    void Load(const Cloud& points, const Eigen::Vector3f& anchor,
+              const std::vector<float>& weights = {});
 
-    /// Moments of the block's points within sqrt(`radius2`) of `p` (an absolute position).
+    /// Weighted moments of the block's points within sqrt(`radius2`) of `p` (an absolute
+    /// position).
     Moments Within(const Eigen::Vector3f& p, float radius2) const;
     /// Squared distances from `p` to every block point, in block order, into `out`.
     void SquaredDistances(const Eigen::Vector3f& p, std::vector<float>& out) const;
 
   private:
     std::vector<uint32_t> index_;
-    std::vector<float> x_, y_, z_;
+    std::vector<float> x_, y_, z_, w_;
     Eigen::Vector3f anchor_ = Eigen::Vector3f::Zero();
 };
 

@@ -11,6 +11,11 @@ namespace soilvol::cloud {
 
 LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_neighbors,
                                 const StopToken& stop) {
+    return SmoothLocalSurface(points, {}, radius_m, min_neighbors, stop);
+}
+
+LocalSurface SmoothLocalSurface(const Cloud& points, const std::vector<float>& weights,
+                                double radius_m, int min_neighbors, const StopToken& stop) {
     // Voxels of the radius: every neighbour of a point lies in the 3^3 block around its voxel,
     // gathered once for all the voxel's points.
     const VoxelGrid grid(points, radius_m);
@@ -26,12 +31,12 @@ LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m, int min_ne
             if (stop.StopRequested()) continue;
             const auto [begin, end] = grid.Range(static_cast<std::size_t>(v));
             grid.GatherBlock(grid.Coord(static_cast<std::size_t>(v)), 1, block.indices());
-            block.Load(points, points[grid.Order()[begin]]);
+            block.Load(points, points[grid.Order()[begin]], weights);
             for (std::size_t o = begin; o < end; ++o) {
                 const uint32_t k = grid.Order()[o];
                 const Moments m = block.Within(points[k], r2);
-                if (m.count < min_neighbors) continue;
-                const double n = static_cast<double>(m.count);
+                if (m.count < min_neighbors || m.weight <= 0.0) continue;
+                const double n = m.weight;
                 const Eigen::Vector3d offset = m.sum / n;
                 means[k] = (points[k].cast<double>() + offset).cast<float>();
                 const Eigen::Matrix3d cov = m.outer - n * offset * offset.transpose();

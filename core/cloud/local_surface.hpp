@@ -1,5 +1,7 @@
 #pragma once
 
+#include <vector>
+
 #include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 
@@ -21,6 +23,13 @@ inline constexpr int kMinSurfaceNeighbors = 5;
 /// is partial; the caller checks the token.
 LocalSurface SmoothLocalSurface(const Cloud& points, double radius_m,
                                 int min_neighbors = kMinSurfaceNeighbors,
+                                const StopToken& stop = {});
+
+/// The same over weighted points: means and covariances weigh each point by its weight (one
+/// per point), the neighbour count counts points. Voxel centroids weighted by their counts
+/// (VoxelCentroids) give the means of the points they stand for, at any density.
+LocalSurface SmoothLocalSurface(const Cloud& points, const std::vector<float>& weights,
+                                double radius_m, int min_neighbors = kMinSurfaceNeighbors,
                                 const StopToken& stop = {});
 
 }  // namespace soilvol::cloud

@@ -114,24 +114,16 @@ OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
         return result;
     }
     // Voxel centroids stand for their points (every point is its own voxel when voxel_m <= 0).
-    Cloud centroids;
-    std::vector<uint32_t> voxel_of(points.size());
+    VoxelCentroids voxels;
     if (config.voxel_m > 0.0) {
-        const VoxelGrid grid(points, config.voxel_m);
-        centroids.reserve(grid.NumVoxels());
-        for (std::size_t v = 0; v < grid.NumVoxels(); ++v) {
-            const auto [begin, end] = grid.Range(v);
-            Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-            for (std::size_t o = begin; o < end; ++o) {
-                sum += points[grid.Order()[o]].cast<double>();
-                voxel_of[grid.Order()[o]] = static_cast<uint32_t>(v);
-            }
-            centroids.push_back((sum / static_cast<double>(end - begin)).cast<float>());
-        }
+        voxels = CentroidsOf(points, config.voxel_m);
     } else {
-        centroids = points;
-        for (std::size_t i = 0; i < points.size(); ++i) voxel_of[i] = static_cast<uint32_t>(i);
+        voxels.points = points;
+        voxels.voxel_of.resize(points.size());
+        std::iota(voxels.voxel_of.begin(), voxels.voxel_of.end(), uint32_t{0});
     }
+    const Cloud& centroids = voxels.points;
+    const std::vector<uint32_t>& voxel_of = voxels.voxel_of;
     if (centroids.size() <= static_cast<std::size_t>(config.mean_k)) {
         result.kept = points;
         return result;

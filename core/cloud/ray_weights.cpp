@@ -24,19 +24,10 @@ std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor
     // Normals of the local surface, from neighbourhoods wide against the noise.
     const double radius = std::max(config.radius_m, config.noise_sigmas * noise_sigma_m);
     // One normal per voxel (of the voxel's centroid); each point takes its voxel's.
-    const VoxelGrid grid(points, config.voxel_m);
-    Cloud centroids(grid.NumVoxels());
-    std::vector<int64_t> voxel_of(points.size(), -1);
-    for (std::size_t v = 0; v < grid.NumVoxels(); ++v) {
-        const auto [begin, end] = grid.Range(v);
-        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-        for (std::size_t i = begin; i < end; ++i) {
-            sum += points[grid.Order()[i]].cast<double>();
-            voxel_of[grid.Order()[i]] = static_cast<int64_t>(v);
-        }
-        centroids[v] = (sum / static_cast<double>(end - begin)).cast<float>();
-    }
-    const LocalSurface surface = SmoothLocalSurface(centroids, radius, kMinSurfaceNeighbors, stop);
+    const VoxelCentroids voxels = CentroidsOf(points, config.voxel_m);
+    const Cloud& centroids = voxels.points;
+    const LocalSurface surface =
+        SmoothLocalSurface(centroids, voxels.counts, radius, kMinSurfaceNeighbors, stop);
     if (stop.StopRequested()) return weights;
     // SmoothLocalSurface keeps the centroids with neighbours, in order: map them back.
     std::vector<int64_t> normal_of(centroids.size(), -1);
@@ -60,8 +51,7 @@ std::vector<float> RayWeights(const Cloud& points, const Eigen::Vector3d& sensor
 #pragma omp parallel for schedule(static)
     for (long i = 0; i < n; ++i) {
         const auto k = static_cast<std::size_t>(i);
-        if (voxel_of[k] < 0) continue;
-        const int64_t j = normal_of[static_cast<std::size_t>(voxel_of[k])];
+        const int64_t j = normal_of[voxels.voxel_of[k]];
         if (j < 0) continue;
         const Eigen::Vector3f normal = surface.normals[static_cast<std::size_t>(j)];
         const Eigen::Vector3f ray = (points[k] - origin).normalized();

@@ -139,18 +139,29 @@ void VoxelGrid::GatherBlock(const Eigen::Vector3i& c, int reach, std::vector<uin
     }
 }
 
-Cloud VoxelDownsample(const Cloud& points, double voxel_size_m) {
-    if (voxel_size_m <= 0.0) return points;
+VoxelCentroids CentroidsOf(const Cloud& points, double voxel_size_m) {
+    VoxelCentroids out;
+    if (points.empty()) return out;
     const VoxelGrid grid(points, voxel_size_m);
-    Cloud out;
-    out.reserve(grid.NumVoxels());
+    out.points.resize(grid.NumVoxels());
+    out.counts.resize(grid.NumVoxels());
+    out.voxel_of.resize(points.size());
     for (std::size_t v = 0; v < grid.NumVoxels(); ++v) {
         const auto [begin, end] = grid.Range(v);
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-        for (std::size_t i = begin; i < end; ++i) sum += points[grid.Order()[i]].cast<double>();
-        out.push_back((sum / static_cast<double>(end - begin)).cast<float>());
+        for (std::size_t i = begin; i < end; ++i) {
+            sum += points[grid.Order()[i]].cast<double>();
+            out.voxel_of[grid.Order()[i]] = static_cast<uint32_t>(v);
+        }
+        out.points[v] = (sum / static_cast<double>(end - begin)).cast<float>();
+        out.counts[v] = static_cast<float>(end - begin);
     }
     return out;
+}
+
+Cloud VoxelDownsample(const Cloud& points, double voxel_size_m) {
+    if (voxel_size_m <= 0.0) return points;
+    return CentroidsOf(points, voxel_size_m).points;
 }
 
 }  // namespace soilvol::cloud

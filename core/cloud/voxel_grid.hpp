@@ -53,6 +53,19 @@ class VoxelGrid {
     std::vector<uint32_t> order_;
 };
 
+/// The centroid of each occupied voxel with the number of points it stands for, and the
+/// centroid each input point went to. A mean over centroids weighted by their counts is the
+/// mean over the points themselves: it does not change with the scan's density, where a mean
+/// over centroids alone weighs a dense scan's sparse noise tails like its surface.
+struct VoxelCentroids {
+    Cloud points;
+    std::vector<float> counts;
+    std::vector<uint32_t> voxel_of;
+};
+
+/// Centroids of the voxels of `voxel_size_m` (> 0).
+VoxelCentroids CentroidsOf(const Cloud& points, double voxel_size_m);
+
 /// Centroid of the points in each occupied voxel of `voxel_size_m` (<= 0 returns a copy).
 Cloud VoxelDownsample(const Cloud& points, double voxel_size_m);
 

@@ -37,9 +37,9 @@ void SplitInsideOutside(const Cloud& points, const Opening& opening, const Model
 // that noise spread into the column.
 Cloud StructurePoints(const Cloud& points, const Opening& opening, const ModelConfig& config,
                       double radius_m, double depth_m, const StopToken& stop) {
-    const cloud::LocalSurface local =
-        cloud::SmoothLocalSurface(cloud::VoxelDownsample(points, config.smoothing_voxel_m),
-                                  radius_m, cloud::kMinSurfaceNeighbors, stop);
+    const cloud::VoxelCentroids voxels = cloud::CentroidsOf(points, config.smoothing_voxel_m);
+    const cloud::LocalSurface local = cloud::SmoothLocalSurface(
+        voxels.points, voxels.counts, radius_m, cloud::kMinSurfaceNeighbors, stop);
     const double top = config.heightmap.max_heap_slope * 0.5 *
                        (opening.polygon.Max() - opening.polygon.Min()).minCoeff();
     // Each voxel is classified by its smoothed position (noise averaged out) and kept at its
@@ -161,9 +161,9 @@ absl::Status MakeAlignmentSet(const Cloud& points, const ModelConfig& config, Co
         if (!column.Holds(p.cast<double>())) outside.push_back(p);
     }
     SOILVOL_RETURN_IF_ERROR(stop.Check("alignment set"));
-    const cloud::LocalSurface surface =
-        cloud::SmoothLocalSurface(cloud::VoxelDownsample(outside, config.smoothing_voxel_m),
-                                  model.smoothing_radius_m, cloud::kMinSurfaceNeighbors, stop);
+    const cloud::VoxelCentroids voxels = cloud::CentroidsOf(outside, config.smoothing_voxel_m);
+    const cloud::LocalSurface surface = cloud::SmoothLocalSurface(
+        voxels.points, voxels.counts, model.smoothing_radius_m, cloud::kMinSurfaceNeighbors, stop);
     SOILVOL_RETURN_IF_ERROR(stop.Check("alignment set"));
     const Cloud& selected = surface.points;
     const Cloud& selected_normals = surface.normals;

@@ -38,8 +38,7 @@ TEST(GlobalAlignTest, FindsLargeMovesNearEnoughForIcp) {
     Pose registered = Pose::Identity();
     registered.translation() = Eigen::Vector3d(0.1, -0.2, 3.0);
     const Eigen::Vector3d sensor_in_container = registered.inverse() * Eigen::Vector3d::Zero();
-    const cloud::LocalSurface model =
-        cloud::SmoothLocalSurface(cloud::VoxelDownsample(object, 0.03), 0.08);
+    const cloud::LocalSurface model = SmoothedAsModel(object);
     for (const double yaw_deg : {50.0, -35.0}) {
         Pose move = Pose::Identity();
         move.linear() =
@@ -71,8 +70,7 @@ TEST(GlobalAlignTest, PoseMustExplainTheAskedShareOfTheModel) {
     for (const auto& p : Noisy(object, placed, 0.003, 5)) {
         if (p.x() < 0.0f) half.push_back(p);
     }
-    const cloud::LocalSurface model =
-        cloud::SmoothLocalSurface(cloud::VoxelDownsample(object, 0.03), 0.08);
+    const cloud::LocalSurface model = SmoothedAsModel(object);
     const Eigen::Vector3d sensor(0.0, 0.0, -3.0);
     GlobalAlignConfig strict;
     strict.min_inlier_fraction = 0.9;

@@ -20,8 +20,7 @@ struct Source {
     Cloud points, normals;
 };
 Source MakeSource(const Cloud& object) {
-    const cloud::LocalSurface s =
-        cloud::SmoothLocalSurface(cloud::VoxelDownsample(object, 0.03), 0.08);
+    const cloud::LocalSurface s = SmoothedAsModel(object);
     return {s.points, s.normals};
 }
 

@@ -1,5 +1,7 @@
 #pragma once
 
+#include "core/cloud/local_surface.hpp"
+#include "core/cloud/voxel_grid.hpp"
 #include "core/common/types.hpp"
 
 namespace soilvol::align {
@@ -25,6 +27,13 @@ inline Cloud Object() {
         for (double z = -0.3; z <= 0.1; z += 0.01) c.emplace_back(x, 0.55, z);
     }
     return c;
+}
+
+// The model's alignment set from `points`, smoothed as ContainerModel smooths it: 3 cm voxel
+// centroids weighted by their counts, means over 8 cm.
+inline cloud::LocalSurface SmoothedAsModel(const Cloud& points) {
+    const cloud::VoxelCentroids voxels = cloud::CentroidsOf(points, 0.03);
+    return cloud::SmoothLocalSurface(voxels.points, voxels.counts, 0.08);
 }
 
 }  // namespace soilvol::align

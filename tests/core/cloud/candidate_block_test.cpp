@@ -57,5 +57,23 @@ TEST(CandidateBlockTest, EmptyBlockHasNoMoments) {
     EXPECT_TRUE(d2.empty());
 }
 
+// A weight counts like that many copies of the point in the sums; the count stays one each.
+TEST(CandidateBlockTest, WeightsCountAsCopiesInTheSums) {
+    const Cloud points = {
+        {0.0f, 0.0f, 0.0f}, {0.1f, 0.0f, 0.0f}, {0.0f, 0.2f, 0.0f}, {5.0f, 0.0f, 0.0f}};
+    const std::vector<float> weights = {1.0f, 3.0f, 2.0f, 7.0f};
+    CandidateBlock block;
+    block.indices() = {0, 1, 2, 3};
+    block.Load(points, points[0], weights);
+    const Moments m = block.Within(points[0], 0.25f * 0.25f);
+    EXPECT_EQ(m.count, 3);
+    EXPECT_DOUBLE_EQ(m.weight, 6.0);
+    EXPECT_NEAR(m.sum.x(), 0.3, 1e-6);
+    EXPECT_NEAR(m.sum.y(), 0.4, 1e-6);
+    EXPECT_NEAR(m.outer(0, 0), 0.03, 1e-6);
+    EXPECT_NEAR(m.outer(1, 1), 0.08, 1e-6);
+    EXPECT_NEAR(m.outer(0, 1), 0.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace soilvol::cloud

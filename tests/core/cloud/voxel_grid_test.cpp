@@ -18,6 +18,22 @@ TEST(VoxelGridTest, DownsampleAveragesEachVoxel) {
     EXPECT_NEAR(out[1].x(), 0.51f, 1e-6f);
 }
 
+TEST(VoxelGridTest, CentroidsCountTheirPointsAndEachPointKnowsItsCentroid) {
+    const Cloud cloud = {
+        {0.01f, 0.01f, 0.01f}, {0.51f, 0.01f, 0.01f}, {0.03f, 0.03f, 0.03f}, {0.05f, 0.05f, 0.08f}};
+    const VoxelCentroids c = CentroidsOf(cloud, 0.1);
+    ASSERT_EQ(c.points.size(), 2u);
+    ASSERT_EQ(c.counts.size(), 2u);
+    ASSERT_EQ(c.voxel_of.size(), cloud.size());
+    EXPECT_EQ(c.voxel_of[0], c.voxel_of[2]);
+    EXPECT_EQ(c.voxel_of[0], c.voxel_of[3]);
+    EXPECT_NE(c.voxel_of[0], c.voxel_of[1]);
+    EXPECT_EQ(c.counts[c.voxel_of[0]], 3.0f);
+    EXPECT_EQ(c.counts[c.voxel_of[1]], 1.0f);
+    EXPECT_NEAR(c.points[c.voxel_of[0]].z(), 0.04f, 1e-6f);
+    EXPECT_TRUE(CentroidsOf({}, 0.1).points.empty());
+}
+
 TEST(VoxelGridTest, FindsOccupiedNeighbours) {
     const Cloud cloud = {{0.0f, 0.0f, 0.0f}, {0.15f, 0.0f, 0.0f}, {-3.0f, 2.0f, 1.0f}};
     const VoxelGrid grid(cloud, 0.1);
