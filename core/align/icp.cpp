@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "absl/strings/str_format.h"
@@ -43,11 +44,13 @@ Target PrepareTarget(const Cloud& source, const Cloud& scan, const Pose& initial
     const Eigen::Vector3f c = (initial * centre).cast<float>();
     const auto r2 = static_cast<float>(std::pow(radius + config.crop_margin_m, 2));
     const Pose to_container = initial.inverse();
+    const std::optional<ContentColumnIndex> index =
+        column != nullptr ? std::optional<ContentColumnIndex>(*column) : std::nullopt;
     Cloud cropped;
     cropped.reserve(scan.size());
     for (const auto& p : scan) {
         if ((p - c).squaredNorm() > r2) continue;
-        if (column != nullptr && column->Holds((to_container * p.cast<double>()))) continue;
+        if (index && index->Holds((to_container * p.cast<double>()))) continue;
         cropped.push_back(p);
     }
     if (stop.StopRequested()) return {};
@@ -147,6 +150,75 @@ void Summarize(const Cloud& source, const Cloud& normals, const Target& target,
 }
 
 }  // namespace
+
+namespace {
+
+ContentColumn::Side SideAt(const ContentColumn& column, bool inside, double edge) {
+    return {inside, edge < column.wall_band_m, column.margin_m <= 0.0 || edge > column.margin_m};
+}
+
+}  // namespace
+
+ContentColumn::Side ContentColumn::SideOf(const Eigen::Vector2d& xy) const {
+    return SideAt(*this, polygon.Contains(xy), polygon.DistanceToBoundary(xy));
+}
+
+namespace {
+
+constexpr uint8_t kDecided = 1, kInside = 2, kNearWall = 4, kBeyondMargin = 8;
+// Cells enough for a fine raster over a bucket, coarser over a truck bed.
+constexpr double kMaxColumnCells = 4096.0;
+
+}  // namespace
+
+ContentColumnIndex::ContentColumnIndex(ContentColumn column) : column_(std::move(column)) {
+    if (column_.polygon.Vertices().size() < 3) return;
+    // Beyond the band around the polygon's box no point is inside nor near a wall.
+    const double reach = std::max({column_.wall_band_m, column_.margin_m, 0.0}) + 0.01;
+    origin_ = column_.polygon.Min() - Eigen::Vector2d::Constant(reach);
+    const Eigen::Vector2d extent =
+        column_.polygon.Max() + Eigen::Vector2d::Constant(reach) - origin_;
+    cell_m_ = std::max(0.01, std::sqrt(extent.prod() / kMaxColumnCells));
+    cols_ = static_cast<int>(std::ceil(extent.x() / cell_m_));
+    rows_ = static_cast<int>(std::ceil(extent.y() / cell_m_));
+    cells_.assign(static_cast<std::size_t>(cols_) * static_cast<std::size_t>(rows_), 0);
+    const double half_diagonal = 0.5 * std::sqrt(2.0) * cell_m_;
+    const auto clear = [&](double edge, double threshold) {
+        return std::abs(edge - threshold) > half_diagonal;
+    };
+    for (int r = 0; r < rows_; ++r) {
+        for (int c = 0; c < cols_; ++c) {
+            const Eigen::Vector2d centre = origin_ + cell_m_ * Eigen::Vector2d(c + 0.5, r + 0.5);
+            const double edge = column_.polygon.DistanceToBoundary(centre);
+            if (!clear(edge, 0.0) || !clear(edge, column_.wall_band_m) ||
+                (column_.margin_m > 0.0 && !clear(edge, column_.margin_m))) {
+                continue;
+            }
+            const ContentColumn::Side side =
+                SideAt(column_, column_.polygon.Contains(centre), edge);
+            cells_[static_cast<std::size_t>(r) * static_cast<std::size_t>(cols_) +
+                   static_cast<std::size_t>(c)] =
+                static_cast<uint8_t>(kDecided | (side.inside ? kInside : 0) |
+                                     (side.near_wall ? kNearWall : 0) |
+                                     (side.beyond_margin ? kBeyondMargin : 0));
+        }
+    }
+}
+
+bool ContentColumnIndex::Holds(const Eigen::Vector3d& p) const {
+    return column_.Holds(p, [this](const Eigen::Vector2d& xy) {
+        const Eigen::Vector2d q = (xy - origin_) / cell_m_;
+        if (!(q.x() >= 0.0 && q.y() >= 0.0 && q.x() < cols_ && q.y() < rows_)) {
+            return ContentColumn::Side{};
+        }
+        const uint8_t cell =
+            cells_[static_cast<std::size_t>(q.y()) * static_cast<std::size_t>(cols_) +
+                   static_cast<std::size_t>(q.x())];
+        if (!(cell & kDecided)) return column_.SideOf(xy);
+        return ContentColumn::Side{(cell & kInside) != 0, (cell & kNearWall) != 0,
+                                   (cell & kBeyondMargin) != 0};
+    });
+}
 
 AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
                   const Pose& initial_T_scan_container, const AlignConfig& config,

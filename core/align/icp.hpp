@@ -1,6 +1,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "core/common/polygon.hpp"
@@ -64,18 +66,46 @@ struct ContentColumn {
     double top_m = 0.05;
     double wall_band_m = 0.05;
     double margin_m = 0.0;
-    /// Heights first, then the polygon, its edge distance only where it decides (a scan's
-    /// every point passes through here).
+    /// What the polygon says of a point's (x, y).
+    struct Side {
+        bool inside = false;
+        bool near_wall = false;      ///< within wall_band_m of the edge
+        bool beyond_margin = false;  ///< farther than margin_m from the edge (or no margin)
+    };
+    Side SideOf(const Eigen::Vector2d& xy) const;
+
     bool Holds(const Eigen::Vector3d& p) const {
+        return Holds(p, [this](const Eigen::Vector2d& xy) { return SideOf(xy); });
+    }
+    /// The rule, heights first: `side` answers for the polygon only where the heights leave
+    /// it open.
+    template <class SideFn>
+    bool Holds(const Eigen::Vector3d& p, const SideFn& side) const {
         const bool low = p.z() < -wall_band_m;
         const bool under_top = p.z() < top_m;
         if (!low && !under_top) return false;
-        const Eigen::Vector2d xy = p.head<2>();
-        const bool inside = polygon.Contains(xy);
-        if (low && (inside || polygon.DistanceToBoundary(xy) < wall_band_m)) return true;
-        if (!inside || !under_top) return false;
-        return margin_m <= 0.0 || polygon.DistanceToBoundary(xy) > margin_m;
+        const Side s = side(Eigen::Vector2d(p.head<2>()));
+        if (low && (s.inside || s.near_wall)) return true;
+        return s.inside && under_top && s.beyond_margin;
     }
+};
+
+/// ContentColumn::Holds with the same answers at a fraction of the cost (every return of a scan
+/// asks): the polygon's side is looked up in a raster of cells that lie wholly on one side of
+/// the edge and of each edge-distance threshold (the distance to the edge changes by at most a
+/// cell's half diagonal within it); only points in the other cells ask the polygon.
+class ContentColumnIndex {
+  public:
+    explicit ContentColumnIndex(ContentColumn column);
+    const ContentColumn& Column() const { return column_; }
+    bool Holds(const Eigen::Vector3d& p) const;
+
+  private:
+    ContentColumn column_;
+    Eigen::Vector2d origin_ = Eigen::Vector2d::Zero();
+    double cell_m_ = 1.0;
+    int cols_ = 0, rows_ = 0;
+    std::vector<uint8_t> cells_;  // 0: ask the polygon; else 1 | the side's bits
 };
 
 struct AlignResult {

@@ -27,16 +27,17 @@ SeenThrough SeenThroughShare(const Cloud& model_in_scan, const Cloud& scan, doub
     }
     if (directions.size() < 2) return out;
     const cloud::KdTree tree(directions);
-    // Angular spacing: the median angle to the nearest other return, over a sample.
+    // Angular spacing: the median angle to the nearest other return (not a repeat of the
+    // same direction), over a sample.
+    constexpr std::size_t kNearest = 4;
     std::vector<float> gaps;
     const std::size_t step = std::max<std::size_t>(1, directions.size() / 500);
     for (std::size_t i = 0; i < directions.size(); i += step) {
-        const auto near = tree.Radius(directions[i], 0.05);
-        float best = 1e9f;
-        for (const auto& [j, d2] : near) {
-            if (j != i && d2 > 0.0f) best = std::min(best, d2);
+        for (const auto& [j, d2] : tree.Nearest(directions[i], kNearest)) {
+            if (j == i || !(d2 > 0.0f)) continue;
+            if (d2 < 0.05f * 0.05f) gaps.push_back(std::sqrt(d2));
+            break;
         }
-        if (best < 1e9f) gaps.push_back(std::sqrt(best));
     }
     if (gaps.empty()) return out;
     const double tolerance = config.spacings * Median(gaps);

@@ -1,5 +1,6 @@
 #include "core/cloud/kd_tree.hpp"
 
+#include <algorithm>
 #include <limits>
 #include <nanoflann.hpp>
 
@@ -42,6 +43,17 @@ std::pair<int64_t, float> KdTree::Nearest(const Eigen::Vector3f& query) const {
     float dist2 = 0.0f;
     impl_->index.knnSearch(query.data(), 1, &index, &dist2);
     return {index, dist2};
+}
+
+std::vector<std::pair<uint32_t, float>> KdTree::Nearest(const Eigen::Vector3f& query,
+                                                        std::size_t k) const {
+    k = std::min(k, impl_->adaptor.points.size());
+    std::vector<uint32_t> index(k);
+    std::vector<float> dist2(k);
+    if (k > 0) k = impl_->index.knnSearch(query.data(), k, index.data(), dist2.data());
+    std::vector<std::pair<uint32_t, float>> out(k);
+    for (std::size_t i = 0; i < k; ++i) out[i] = {index[i], dist2[i]};
+    return out;
 }
 
 std::vector<std::pair<uint32_t, float>> KdTree::Radius(const Eigen::Vector3f& query,

@@ -20,6 +20,10 @@ class KdTree {
 
     /// Index and squared distance [m^2] of the nearest point; {-1, inf} for an empty cloud.
     std::pair<int64_t, float> Nearest(const Eigen::Vector3f& query) const;
+    /// The `k` nearest points (fewer in a smaller cloud) as (index, squared distance), nearest
+    /// first.
+    std::vector<std::pair<uint32_t, float>> Nearest(const Eigen::Vector3f& query,
+                                                    std::size_t k) const;
     /// All points within `radius_m` as (index, squared distance), unsorted.
     std::vector<std::pair<uint32_t, float>> Radius(const Eigen::Vector3f& query,
                                                    double radius_m) const;

@@ -155,7 +155,7 @@ namespace {
 // selected and thinned.
 absl::Status MakeAlignmentSet(const Cloud& points, const ModelConfig& config, ContainerModel& model,
                               const StopToken& stop) {
-    const align::ContentColumn column = ContentColumnOf(model);
+    const align::ContentColumnIndex column(ContentColumnOf(model));
     Cloud outside;
     for (const auto& p : points) {
         if (!column.Holds(p.cast<double>())) outside.push_back(p);

@@ -107,13 +107,14 @@ TEST(IcpTest, ReturnsInTheContentColumnAreNotContainer) {
 }
 
 // The column's rule, as its documentation states it: over the opening below the top (but the
-// margin along the edge), and the walls' band below the opening.
+// margin along the edge), and the walls' band below the opening; its raster index agrees.
 TEST(IcpTest, ContentColumnHoldsWhatItsRuleSays) {
     const Polygon2d polygon({{-0.6, -0.4}, {0.6, -0.4}, {0.7, 0.4}, {-0.5, 0.5}});
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> xy(-0.9, 0.9), z(-0.4, 0.2);
     for (const double margin : {0.0, 0.03}) {
         const ContentColumn column{polygon, 0.05, 0.05, margin};
+        const ContentColumnIndex index(column);
         int held = 0;
         for (int i = 0; i < 20000; ++i) {
             const Eigen::Vector3d p(xy(rng), xy(rng), z(rng));
@@ -122,10 +123,35 @@ TEST(IcpTest, ContentColumnHoldsWhatItsRuleSays) {
             const bool wall = p.z() < -0.05 && (inside || edge < 0.05);
             const bool over = inside && p.z() < 0.05 && (margin <= 0.0 || edge > margin);
             ASSERT_EQ(column.Holds(p), wall || over) << p.transpose() << " margin " << margin;
+            ASSERT_EQ(index.Holds(p), wall || over) << p.transpose() << " margin " << margin;
             held += wall || over ? 1 : 0;
         }
         EXPECT_GT(held, 2000);
         EXPECT_LT(held, 18000);
+    }
+}
+
+// The raster index agrees with the polygon everywhere, also on a concave polygon of a truck's
+// size (coarser cells) and right along its edges and thresholds.
+TEST(IcpTest, ContentColumnIndexAnswersAsThePolygon) {
+    const Polygon2d polygon(
+        {{0.0, 0.0}, {6.0, 0.0}, {6.0, 2.5}, {3.5, 2.5}, {3.0, 1.2}, {2.5, 2.5}, {0.0, 2.5}});
+    const ContentColumn column{polygon, 0.1, 0.07, 0.03};
+    const ContentColumnIndex index(column);
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> x(-0.5, 6.5), y(-0.5, 3.0), z(-0.3, 0.2),
+        jitter(-0.12, 0.12);
+    const auto& v = polygon.Vertices();
+    for (int i = 0; i < 40000; ++i) {
+        Eigen::Vector3d p(x(rng), y(rng), z(rng));
+        if (i % 2 == 0) {
+            // Near an edge: a point on it moved by up to 12 cm.
+            const std::size_t e = static_cast<std::size_t>(i / 2) % v.size();
+            const double t = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+            const Eigen::Vector2d on = v[e] + t * (v[(e + 1) % v.size()] - v[e]);
+            p.head<2>() = on + Eigen::Vector2d(jitter(rng), jitter(rng));
+        }
+        ASSERT_EQ(index.Holds(p), column.Holds(p)) << p.transpose();
     }
 }
 
