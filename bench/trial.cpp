@@ -18,7 +18,9 @@ sim::SensorSpec PaperSensor(sim::ContainerKind container) {
 
 std::string ContainerName(sim::ContainerKind kind) { return sim::ContainerDescription(kind); }
 
-RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
+namespace {
+
+sim::SceneSpec EmptySpec(const Setup& setup, uint64_t seed) {
     sim::SceneSpec spec;
     spec.container = setup.container;
     spec.shape = setup.shape;
@@ -26,13 +28,27 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
     spec.jitter = setup.jitter;
     spec.soil_seed = seed;
     spec.scan_seed = seed * 1000;
-    const sim::Scene empty = sim::SimulateScene(spec);
-    Corners corners = empty.opening_corners_scan;
+    return spec;
+}
+
+}  // namespace
+
+EmptyScanCase SimulateEmpty(const Setup& setup, uint64_t seed) {
+    EmptyScanCase out{sim::SimulateScene(EmptySpec(setup, seed)), {}};
+    out.corners = out.scene.opening_corners_scan;
     std::mt19937_64 rng(seed * 7919);
     std::normal_distribution<double> noise(0.0, 1.0);
-    for (auto& c : corners) {
+    for (auto& c : out.corners) {
         c += setup.corner_noise_m * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
     }
+    return out;
+}
+
+RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
+    const sim::SceneSpec spec = EmptySpec(setup, seed);
+    const EmptyScanCase marked = SimulateEmpty(setup, seed);
+    const sim::Scene& empty = marked.scene;
+    const Corners& corners = marked.corners;
     std::vector<pipeline::EmptyScan> scans = {{empty.points, std::nullopt}};
     for (int j = 1; j < setup.empty_scans; ++j) {
         sim::SceneSpec turned = spec;

@@ -42,6 +42,14 @@ struct RegisteredModel {
 };
 RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed);
 
+/// The empty scan RegisterEmpty registers from, with its marked corners (noisy as configured):
+/// what a benchmark of the server registers through the API.
+struct EmptyScanCase {
+    sim::Scene scene;
+    Corners corners;
+};
+EmptyScanCase SimulateEmpty(const Setup& setup, uint64_t seed);
+
 /// A filled scan of the same container (new pose, new noise) with its true volume.
 sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t scan_index);
 
