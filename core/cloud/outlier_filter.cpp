@@ -132,10 +132,20 @@ OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
     const std::vector<float> mean =
         MeanNeighborDistances(centroids, config.mean_k, config.num_threads, stop);
     if (stop.StopRequested()) return result;
-    const double n = static_cast<double>(mean.size());
-    const double mu = std::accumulate(mean.begin(), mean.end(), 0.0) / n;
+    // PCL's statistics are over the points: each centroid weighs the returns it stands for, so
+    // a dense surface's few centroids are not outweighed by isolated returns (one each).
+    double n = 0.0, sum = 0.0;
+    for (std::size_t v = 0; v < mean.size(); ++v) {
+        const double w = voxels.counts.empty() ? 1.0 : static_cast<double>(voxels.counts[v]);
+        n += w;
+        sum += w * static_cast<double>(mean[v]);
+    }
+    const double mu = sum / n;
     double sq = 0.0;
-    for (const float d : mean) sq += (static_cast<double>(d) - mu) * (static_cast<double>(d) - mu);
+    for (std::size_t v = 0; v < mean.size(); ++v) {
+        const double w = voxels.counts.empty() ? 1.0 : static_cast<double>(voxels.counts[v]);
+        sq += w * (static_cast<double>(mean[v]) - mu) * (static_cast<double>(mean[v]) - mu);
+    }
     const double sigma = std::sqrt(sq / std::max(n - 1.0, 1.0));
     result.mean_distance_m = mu;
     result.threshold_m = mu + config.stddev_mul * sigma;
