@@ -149,27 +149,19 @@ void Summarize(const Cloud& source, const Cloud& normals, const Target& target,
     result.z_sigma_m = std::sqrt(std::max(0.0, grad.dot(result.covariance * grad)));
 }
 
-}  // namespace
-
-namespace {
-
 ContentColumn::Side SideAt(const ContentColumn& column, bool inside, double edge) {
     return {inside, edge < column.wall_band_m, column.margin_m <= 0.0 || edge > column.margin_m};
 }
-
-}  // namespace
-
-ContentColumn::Side ContentColumn::SideOf(const Eigen::Vector2d& xy) const {
-    return SideAt(*this, polygon.Contains(xy), polygon.DistanceToBoundary(xy));
-}
-
-namespace {
 
 constexpr uint8_t kDecided = 1, kInside = 2, kNearWall = 4, kBeyondMargin = 8;
 // Cells enough for a fine raster over a bucket, coarser over a truck bed.
 constexpr double kMaxColumnCells = 4096.0;
 
 }  // namespace
+
+ContentColumn::Side ContentColumn::SideOf(const Eigen::Vector2d& xy) const {
+    return SideAt(*this, polygon.Contains(xy), polygon.DistanceToBoundary(xy));
+}
 
 ContentColumnIndex::ContentColumnIndex(ContentColumn column) : column_(std::move(column)) {
     if (column_.polygon.Vertices().size() < 3) return;

@@ -97,7 +97,6 @@ struct ContentColumn {
 class ContentColumnIndex {
   public:
     explicit ContentColumnIndex(ContentColumn column);
-    const ContentColumn& Column() const { return column_; }
     bool Holds(const Eigen::Vector3d& p) const;
 
   private:

@@ -8,6 +8,7 @@
 
 #include "core/cloud/candidate_block.hpp"
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/statistics.hpp"
 
 namespace soilvol::cloud {
 namespace {
@@ -134,21 +135,11 @@ OutlierFilterResult RemoveStatisticalOutliers(const Cloud& points,
     if (stop.StopRequested()) return result;
     // PCL's statistics are over the points: each centroid weighs the returns it stands for, so
     // a dense surface's few centroids are not outweighed by isolated returns (one each).
-    double n = 0.0, sum = 0.0;
-    for (std::size_t v = 0; v < mean.size(); ++v) {
-        const double w = voxels.counts.empty() ? 1.0 : static_cast<double>(voxels.counts[v]);
-        n += w;
-        sum += w * static_cast<double>(mean[v]);
-    }
-    const double mu = sum / n;
-    double sq = 0.0;
-    for (std::size_t v = 0; v < mean.size(); ++v) {
-        const double w = voxels.counts.empty() ? 1.0 : static_cast<double>(voxels.counts[v]);
-        sq += w * (static_cast<double>(mean[v]) - mu) * (static_cast<double>(mean[v]) - mu);
-    }
-    const double sigma = std::sqrt(sq / std::max(n - 1.0, 1.0));
-    result.mean_distance_m = mu;
-    result.threshold_m = mu + config.stddev_mul * sigma;
+    const MeanSd stats = WeightedMeanSd(mean, [&](std::size_t v) {
+        return voxels.counts.empty() ? 1.0 : static_cast<double>(voxels.counts[v]);
+    });
+    result.mean_distance_m = stats.mean;
+    result.threshold_m = stats.mean + config.stddev_mul * stats.sd;
     result.kept.reserve(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) {
         if (static_cast<double>(mean[voxel_of[i]]) <= result.threshold_m)

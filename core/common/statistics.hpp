@@ -42,4 +42,30 @@ double RobustSigma(const std::vector<T>& values, double centre) {
     return 1.4826 * Median(std::move(dev));
 }
 
+/// Mean and standard deviation (n - 1 in the denominator, n the total weight) of `values`
+/// each counted `weight(i)` times; NaN mean when the total weight is zero.
+struct MeanSd {
+    double mean = std::numeric_limits<double>::quiet_NaN();
+    double sd = 0.0;
+};
+
+template <class T, class WeightFn>
+MeanSd WeightedMeanSd(const std::vector<T>& values, WeightFn weight) {
+    double n = 0.0, sum = 0.0;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        n += weight(i);
+        sum += weight(i) * static_cast<double>(values[i]);
+    }
+    MeanSd r;
+    if (n <= 0.0) return r;
+    r.mean = sum / n;
+    double sq = 0.0;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        const double d = static_cast<double>(values[i]) - r.mean;
+        sq += weight(i) * d * d;
+    }
+    r.sd = std::sqrt(sq / std::max(n - 1.0, 1.0));
+    return r;
+}
+
 }  // namespace soilvol
