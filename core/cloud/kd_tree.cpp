@@ -1,6 +1,7 @@
 #include "core/cloud/kd_tree.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <nanoflann.hpp>
 
@@ -17,6 +18,25 @@ struct CloudAdaptor {
     bool kdtree_get_bbox(Box&) const {
         return false;
     }
+};
+
+// A result set that takes the first point within its bound and ends the search.
+class FirstWithin {
+  public:
+    explicit FirstWithin(float bound2) : bound2_(bound2) {}
+    void init() {}
+    std::size_t size() const { return found_ ? 1 : 0; }
+    bool full() const { return true; }
+    bool addPoint(float dist2, uint32_t) {
+        found_ = dist2 < bound2_;
+        return !found_;
+    }
+    float worstDist() const { return bound2_; }
+    bool found() const { return found_; }
+
+  private:
+    float bound2_;
+    bool found_ = false;
 };
 
 using Index = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, CloudAdaptor>,
@@ -54,6 +74,15 @@ std::vector<std::pair<uint32_t, float>> KdTree::Nearest(const Eigen::Vector3f& q
     std::vector<std::pair<uint32_t, float>> out(k);
     for (std::size_t i = 0; i < k; ++i) out[i] = {index[i], dist2[i]};
     return out;
+}
+
+bool KdTree::AnyWithin(const Eigen::Vector3f& query, double radius_m) const {
+    if (impl_->adaptor.points.empty() || !(radius_m >= 0.0)) return false;
+    // nanoflann keeps points strictly nearer than the bound: the next float up includes r^2.
+    FirstWithin result(std::nextafter(static_cast<float>(radius_m * radius_m),
+                                      std::numeric_limits<float>::infinity()));
+    impl_->index.findNeighbors(result, query.data(), nanoflann::SearchParams());
+    return result.found();
 }
 
 std::vector<std::pair<uint32_t, float>> KdTree::Radius(const Eigen::Vector3f& query,

@@ -24,6 +24,8 @@ class KdTree {
     /// first.
     std::vector<std::pair<uint32_t, float>> Nearest(const Eigen::Vector3f& query,
                                                     std::size_t k) const;
+    /// Whether any point lies within `radius_m` (inclusive); stops at the first it finds.
+    bool AnyWithin(const Eigen::Vector3f& query, double radius_m) const;
     /// All points within `radius_m` as (index, squared distance), unsorted.
     std::vector<std::pair<uint32_t, float>> Radius(const Eigen::Vector3f& query,
                                                    double radius_m) const;

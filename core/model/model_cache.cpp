@@ -58,7 +58,7 @@ bool StructureIndex::Near(const Eigen::Vector3f& p) const {
                          static_cast<std::size_t>(f.x())];
         if (static_cast<double>(p.z()) < static_cast<double>(lowest) - radius_m_) return false;
     }
-    return static_cast<double>(tree_.Nearest(p).second) <= radius_m_ * radius_m_;
+    return tree_.AnyWithin(p, radius_m_);
 }
 
 const StructureIndex& ModelCache::Structure(const ContainerModel& model) {

@@ -16,6 +16,7 @@ std::vector<double> FreeSpaceCeiling(const Grid& grid, const std::vector<Weighte
     const Eigen::Vector2d lo = grid.origin;
     const Eigen::Vector2d hi = grid.origin + grid.cell_m * Eigen::Vector2d(grid.cols, grid.rows);
     const double step = grid.cell_m;
+    const double inv_cell = 1.0 / grid.cell_m;
     // Rays are far denser than cells: a few per fine bin bound a cell as well as all of them.
     const double area = grid.cell_m * grid.cell_m * grid.cols * grid.rows;
     const auto wanted =
@@ -38,13 +39,19 @@ std::vector<double> FreeSpaceCeiling(const Grid& grid, const std::vector<Weighte
             }
             const double t_stop = 1.0 - grid.cell_m / horizontal;
             const double dt = step / horizontal;
-            for (double t = t_stop; t > t_enter; t -= dt) {
-                const Eigen::Vector3d x = scan.sensor + t * d;
-                const int cell = grid.CellOf(x.x(), x.y());
-                if (cell < 0) continue;
-                auto& l = lowest[static_cast<std::size_t>(cell)];
-                if (x.z() >= l[2]) continue;
-                l[2] = x.z();
+            // The walk in grid units (cells), one cell per step.
+            const Eigen::Vector3d start = scan.sensor + t_stop * d;
+            const double gx = (start.x() - lo.x()) * inv_cell, gy = (start.y() - lo.y()) * inv_cell;
+            const double sx = d.x() * dt * inv_cell, sy = d.y() * dt * inv_cell, sz = d.z() * dt;
+            const int steps = static_cast<int>(std::ceil((t_stop - t_enter) / dt));
+            for (int k = 0; k < steps; ++k) {
+                const double fx = gx - k * sx, fy = gy - k * sy;
+                if (!(fx >= 0.0 && fy >= 0.0 && fx < grid.cols && fy < grid.rows)) continue;
+                const double z = start.z() - k * sz;
+                auto& l = lowest[static_cast<std::size_t>(static_cast<int>(fy) * grid.cols +
+                                                          static_cast<int>(fx))];
+                if (z >= l[2]) continue;
+                l[2] = z;
                 if (l[2] < l[1]) std::swap(l[1], l[2]);
                 if (l[1] < l[0]) std::swap(l[0], l[1]);
             }

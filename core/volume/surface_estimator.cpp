@@ -36,20 +36,37 @@ struct PlaneFit {
 // samples spread over the window in both directions, else a level.
 PlaneFit FitPlane(const std::vector<Sample>& samples, const std::vector<double>& rho,
                   double window_m, double max_slope) {
-    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();   // A' W A
-    Eigen::Matrix3d aw2a = Eigen::Matrix3d::Zero();  // A' W^2 A, for the variance
-    Eigen::Vector3d atz = Eigen::Vector3d::Zero();
+    // The symmetric sums of A' W A, A' W^2 A (for the variance) and A' W z, rows (1, dx, dy).
+    double w1 = 0.0, wx = 0.0, wy = 0.0, wxx = 0.0, wxy = 0.0, wyy = 0.0;
+    double v1 = 0.0, vx = 0.0, vy = 0.0, vxx = 0.0, vxy = 0.0, vyy = 0.0;
+    double wz = 0.0, wxz = 0.0, wyz = 0.0;
     int n = 0;
     for (std::size_t i = 0; i < samples.size(); ++i) {
         const Sample& s = samples[i];
         const double w = s.w * (rho.empty() ? 1.0 : rho[i]);
         if (w <= 0.0) continue;
-        const Eigen::Vector3d row(1.0, s.dx, s.dy);
-        ata += w * row * row.transpose();
-        aw2a += w * w * row * row.transpose();
-        atz += w * row * s.z;
+        const double x = s.dx, y = s.dy, w2 = w * w;
+        w1 += w;
+        wx += w * x;
+        wy += w * y;
+        wxx += w * x * x;
+        wxy += w * x * y;
+        wyy += w * y * y;
+        v1 += w2;
+        vx += w2 * x;
+        vy += w2 * y;
+        vxx += w2 * x * x;
+        vxy += w2 * x * y;
+        vyy += w2 * y * y;
+        wz += w * s.z;
+        wxz += w * x * s.z;
+        wyz += w * y * s.z;
         ++n;
     }
+    Eigen::Matrix3d ata, aw2a;
+    ata << w1, wx, wy, wx, wxx, wxy, wy, wxy, wyy;
+    aw2a << v1, vx, vy, vx, vxx, vxy, vy, vxy, vyy;
+    const Eigen::Vector3d atz(wz, wxz, wyz);
     PlaneFit fit;
     const double sw = ata(0, 0);
     if (n < 1 || sw <= 0.0) return fit;
@@ -369,10 +386,11 @@ void FillHoles(const Grid& grid, SurfaceMap& map, const StopToken& stop) {
             break;
         }
     }
+    const double hole_variance = 2.0 * Median(std::move(measured_var));
     for (std::size_t h = 0; h < holes.size(); ++h) {
         const auto k = static_cast<std::size_t>(holes[h]);
         map.height[k] = filled[h];
-        map.variance[k] = 2.0 * Median(measured_var);
+        map.variance[k] = hole_variance;
         map.support[k] = 0;
     }
     map.interpolated = static_cast<int>(holes.size());

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 namespace soilvol::cloud {
@@ -42,6 +43,28 @@ TEST(KdTreeTest, NearestAndRadiusAgreeWithBruteForce) {
         const auto expected = std::upper_bound(truth.begin(), truth.end(), 0.01f) - truth.begin();
         EXPECT_EQ(static_cast<long>(near.size()), expected);
     }
+}
+
+TEST(KdTreeTest, AnyWithinAgreesWithTheNearestDistance) {
+    const Cloud cloud = RandomCloud(3000, 3);
+    const KdTree tree(cloud);
+    const Cloud queries = RandomCloud(200, 4);
+    int inside = 0;
+    for (const auto& q : queries) {
+        const float nearest2 = BruteDistances(cloud, q)[0];
+        for (const double r : {0.005, 0.02, 0.05}) {
+            const bool expected = nearest2 <= static_cast<float>(r * r);
+            EXPECT_EQ(tree.AnyWithin(q, r), expected) << "r " << r;
+            inside += expected ? 1 : 0;
+        }
+        // The bound is the nearest point's distance, up to float rounding.
+        const double d = std::sqrt(static_cast<double>(nearest2));
+        EXPECT_TRUE(tree.AnyWithin(q, d * (1.0 + 1e-5)));
+        EXPECT_FALSE(tree.AnyWithin(q, d * (1.0 - 1e-5)));
+    }
+    EXPECT_GT(inside, 20);  // both answers were exercised
+    EXPECT_LT(inside, 580);
+    EXPECT_FALSE(KdTree(Cloud{}).AnyWithin(Eigen::Vector3f::Zero(), 1.0));
 }
 
 TEST(KdTreeTest, SmallAndEmptyCloudsAnswerWithWhatTheyHave) {
