@@ -11,6 +11,7 @@
 #include "bench/stereo_trial.hpp"
 #include "bench/tables.hpp"
 #include "bench/trial.hpp"
+#include "core/common/build_info.hpp"
 
 namespace {
 
@@ -115,6 +116,7 @@ int StereoDemo(std::ostream& out, soilvol::sim::ContainerKind kind, bool chessbo
 
 int main(int argc, char** argv) {
     CLI::App app{"soilvol-bench: the paper's tables on simulated scenes, side by side"};
+    app.set_version_flag("--version", soilvol::VersionLine("soilvol-bench"));
     app.require_subcommand(1);
     int seeds = 5;
     int reps = 10;

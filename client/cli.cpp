@@ -3,11 +3,13 @@
 #include <CLI/CLI.hpp>
 
 #include "client/commands.hpp"
+#include "core/common/build_info.hpp"
 
 namespace soilvol::client {
 
 int RunCli(int argc, const char* const* argv) {
     CLI::App app{"soilvol: volume of soil in a container, from soilvol-server"};
+    app.set_version_flag("--version", VersionLine("soilvol"));
     app.require_subcommand(1);
     app.fallthrough();
     app.footer(

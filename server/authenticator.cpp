@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 10> kMethodScopes = {{
+constexpr std::array<MethodScope, 11> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -33,6 +33,7 @@ constexpr std::array<MethodScope, 10> kMethodScopes = {{
     {"DeleteContainer", Scope::kAdmin},
     {"EstimateVolume", Scope::kEstimate},
     {"StreamEstimates", Scope::kEstimate},
+    {"GetServerInfo", Scope::kRead},
 }};
 
 // "Bearer <token>" (the scheme in any case, RFC 7235); "" when the header is something else.

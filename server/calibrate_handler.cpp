@@ -35,10 +35,12 @@ absl::StatusOr<stereo::StereoCalibration> FromChessboards(const v1::ChessboardCa
 
 absl::Status SoilVolumeHandlers::Calibrate(const v1::CalibrateRequest& request,
                                            v1::Calibration* response, CallRecord& record) {
-    SOILVOL_ASSIGN_OR_RETURN(const std::string id,
-                             ClaimId(EntryKind::kCalibration, request.calibration_id(),
-                                     "calibration_id", request.overwrite()));
+    const Create create{EntryKind::kCalibration, request.calibration_id(), "calibration_id",
+                        request.overwrite(),     request.etag(),           request.request_id()};
+    bool replayed = false;
+    SOILVOL_ASSIGN_OR_RETURN(const std::string id, ClaimId(create, response, &replayed));
     record.ids.push_back({"calibration", id});
+    if (replayed) return absl::OkStatus();
     Timer timer;
     absl::StatusOr<stereo::StereoCalibration> calibration;
     switch (request.method_case()) {
@@ -64,8 +66,7 @@ absl::Status SoilVolumeHandlers::Calibrate(const v1::CalibrateRequest& request,
     *response->mutable_create_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
     SOILVOL_RETURN_IF_ERROR(record.stop.Check("calibration, before storing it"));
     // The message is the whole record: ToStereoCalibration rebuilds the rig from it.
-    return store_.Put(EntryKind::kCalibration, id, EncodeStoredRecord(*response, {}),
-                      request.overwrite());
+    return Store(create, id, response, {});
 }
 
 }  // namespace soilvol::server

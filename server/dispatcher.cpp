@@ -83,14 +83,17 @@ void Dispatcher::Submit(CallContext context, Work work, Done done) {
     };
     task.reject = [this, state] {
         auto& [ctx, run_work, run_done] = *state;
-        Finish(ctx, CallRecord{}, absl::UnavailableError("the server is shutting down"), run_done);
+        Finish(ctx, CallRecord{},
+               WithReason(absl::UnavailableError("the server is shutting down"), "SHUTTING_DOWN"),
+               run_done);
     };
     if (!pool_.TrySubmit(task)) {
         auto& [ctx, run_work, run_done] = *state;
         Finish(ctx, CallRecord{},
-               absl::ResourceExhaustedError(
-                   absl::StrCat("server busy: all ", pool_.workers(), " workers are busy and ",
-                                pool_.max_queue(), " requests are waiting; retry later")),
+               WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                              "server busy: all ", pool_.workers(), " workers are busy and ",
+                              pool_.max_queue(), " requests are waiting; retry later")),
+                          "QUEUE_FULL"),
                run_done);
     }
 }
@@ -110,6 +113,8 @@ void Dispatcher::Finish(const CallContext& context, const CallRecord& record,
                                                                  : LogLevel::kWarn;
     LogEvent(level, "request",
              {{"method", context.method},
+              {"request_id", context.request_id},
+              {"trace_id", context.trace_id},
               {"transport", context.transport},
               {"peer", context.peer},
               {"principal", context.principal},
@@ -125,6 +130,7 @@ void Dispatcher::Finish(const CallContext& context, const CallRecord& record,
         LogEvent(LogLevel::kInfo, "audit",
                  {{"principal", context.principal.empty() ? "unauthenticated" : context.principal},
                   {"method", context.method},
+                  {"request_id", context.request_id},
                   {"transport", context.transport},
                   {"peer", context.peer},
                   {"ids", IdsText(record)},

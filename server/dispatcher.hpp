@@ -30,6 +30,8 @@ struct CallContext {
     Clock::time_point deadline = Clock::time_point::max();
     std::function<bool()> cancelled;  ///< may be empty; called from any thread
     std::string principal;            ///< who called, set once the call is authorized
+    std::string request_id;           ///< RequestIdOf what the caller sent: logged and echoed
+    std::string trace_id;             ///< TraceIdOf its traceparent, "" without
 };
 
 /// What a handler tells the request log and the metrics about its call.

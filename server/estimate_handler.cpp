@@ -1,99 +1,46 @@
-#include <algorithm>
-#include <cmath>
-
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
+#include "core/pipeline/estimate_policy.hpp"
 #include "server/proto_convert.hpp"
 #include "server/soilvol_handlers.hpp"
 
 namespace soilvol::server {
 namespace {
 
-constexpr double kMinCellM = 0.005;
-constexpr double kMaxCellM = 2.0;
-constexpr double kMaxDensityKgM3 = 30000.0;
-constexpr double kPaperMinPointsPerCell = 4.0;
+pipeline::ScanKind KindOf(v1::ScanKind kind) {
+    return kind == v1::SCAN_KIND_STEREO ? pipeline::ScanKind::kStereo : pipeline::ScanKind::kCloud;
+}
 
-/// The engine settings a request asks for, checked against the container.
-absl::StatusOr<pipeline::EstimateConfig> EstimateConfigFor(const v1::EstimateVolumeRequest& request,
-                                                           const v1::Container& container,
-                                                           const model::ContainerModel& model) {
-    pipeline::EstimateConfig config;
+/// The request's options for core, which checks them against the container.
+absl::StatusOr<pipeline::EstimateRequest> EstimateRequestOf(
+    const v1::EstimateVolumeRequest& request, const v1::Container& container) {
+    pipeline::EstimateRequest out;
     switch (request.method()) {
         case v1::ESTIMATION_METHOD_UNSPECIFIED:
         case v1::ESTIMATION_METHOD_HEIGHTMAP:
-            config.method = volume::Method::kHeightmap;
+            out.method = volume::Method::kHeightmap;
             break;
         case v1::ESTIMATION_METHOD_PAPER:
-            config.method = volume::Method::kPaper;
+            out.method = volume::Method::kPaper;
             break;
         default:
             return absl::InvalidArgumentError(
                 absl::StrCat("method: unknown value ", static_cast<int>(request.method())));
     }
-    if (request.has_grid_cell_m()) {
-        const double cell = request.grid_cell_m();
-        if (!std::isfinite(cell) || cell < kMinCellM || cell > kMaxCellM) {
-            return absl::InvalidArgumentError(
-                absl::StrCat("grid_cell_m: must be in [", kMinCellM, ", ", kMaxCellM, "] metres"));
-        }
-        const double cells = volume::GridCells(model.opening.polygon, cell);
-        if (cells > config.heightmap.max_cells) {
-            return absl::InvalidArgumentError(absl::StrCat(
-                "grid_cell_m: ", cell, " m gives ", static_cast<long long>(cells),
-                " cells over the opening; at most ", config.heightmap.max_cells, " are allowed"));
-        }
-        // The paper's per-cell planes need points in (nearly) every cell; below that its hole
-        // filling extrapolates far planes into nonsense. The registration scan's density tells.
-        const double density =
-            static_cast<double>(model.inside.size()) / std::max(container.opening_area_m2(), 1e-9);
-        const double per_cell = density * cell * cell;
-        if (config.method == volume::Method::kPaper && per_cell < kPaperMinPointsPerCell) {
-            return absl::FailedPreconditionError(
-                absl::StrCat("grid_cell_m: ", cell, " m cells would hold about ", per_cell,
-                             " points each (registration scan density); the paper method needs ",
-                             kPaperMinPointsPerCell, ": use cells of at least ",
-                             std::sqrt(kPaperMinPointsPerCell / std::max(density, 1e-9)),
-                             " m or the heightmap method"));
-        }
-        config.heightmap.cell_m = cell;
-        config.paper.cell_m = cell;
-    }
+    if (request.has_grid_cell_m()) out.grid_cell_m = request.grid_cell_m();
     if (request.has_material_density_kg_m3()) {
-        const double density = request.material_density_kg_m3();
-        if (!std::isfinite(density) || density <= 0.0 || density > kMaxDensityKgM3) {
-            return absl::InvalidArgumentError(absl::StrCat(
-                "material_density_kg_m3: must be in (0, ", kMaxDensityKgM3, "] kg/m^3"));
-        }
+        out.material_density_kg_m3 = request.material_density_kg_m3();
     }
-    if (container.has_max_range_m()) config.preprocess.max_range_m = container.max_range_m();
-    return config;
-}
-
-/// The model lives in the frame of the sensor it was registered from: a scan must come from
-/// the same kind of sensor and, for stereo, the same calibration.
-absl::Status CheckSameSensor(const v1::Scan& scan, const v1::Container& container) {
-    const bool stereo_model = container.registered_from() == v1::SCAN_KIND_STEREO;
-    if (scan.has_cloud() && stereo_model) {
-        return absl::FailedPreconditionError(
-            absl::StrCat("scan.cloud: container '", container.container_id(),
-                         "' was registered from stereo pairs (calibration '",
-                         container.calibration_id(), "'); send a stereo scan"));
+    if (request.has_container_pose()) {
+        const v1::KinematicPose& kinematic = request.container_pose();
+        SOILVOL_ASSIGN_OR_RETURN(out.kinematic_pose,
+                                 ToPose(kinematic.pose(), "container_pose.pose"));
+        out.kinematic_position_sigma_m = kinematic.position_sigma_m();
+        out.kinematic_orientation_sigma_deg = kinematic.orientation_sigma_deg();
     }
-    if (scan.has_stereo() && !stereo_model) {
-        return absl::FailedPreconditionError(
-            absl::StrCat("scan.stereo: container '", container.container_id(),
-                         "' was registered from a point cloud; send a cloud scan"));
-    }
-    if (scan.has_stereo() && !scan.stereo().calibration_id().empty() &&
-        scan.stereo().calibration_id() != container.calibration_id()) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            "scan.stereo.calibration_id: container '", container.container_id(),
-            "' was registered with calibration '", container.calibration_id(), "', not '",
-            scan.stereo().calibration_id(), "'; register it again to use another rig"));
-    }
-    return absl::OkStatus();
+    if (container.has_max_range_m()) out.max_range_m = container.max_range_m();
+    return out;
 }
 
 }  // namespace
@@ -105,9 +52,17 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     record.ids.push_back({"container", request.container_id()});
     if (!request.request_id().empty()) record.ids.push_back({"request", request.request_id()});
     SOILVOL_ASSIGN_OR_RETURN(auto container, LoadContainer(request.container_id(), "container_id"));
+    SOILVOL_ASSIGN_OR_RETURN(const pipeline::EstimateRequest options,
+                             EstimateRequestOf(request, container->info));
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::EstimateConfig config,
-                             EstimateConfigFor(request, container->info, container->model));
-    SOILVOL_RETURN_IF_ERROR(CheckSameSensor(request.scan(), container->info));
+                             pipeline::ConfigureEstimate(options, container->model));
+    if (request.scan().source_case() != v1::Scan::SOURCE_NOT_SET) {
+        SOILVOL_RETURN_IF_ERROR(pipeline::CheckSameSensor(
+            container->info.container_id(), KindOf(container->info.registered_from()),
+            container->info.calibration_id(),
+            request.scan().has_stereo() ? pipeline::ScanKind::kStereo : pipeline::ScanKind::kCloud,
+            request.scan().stereo().calibration_id()));
+    }
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan,
                              DecodeScan(request.scan(), container->info.calibration_id(), record));
 

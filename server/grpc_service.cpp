@@ -2,6 +2,9 @@
 
 #include <string>
 
+#include "server/call_ids.hpp"
+#include "server/status_map.hpp"
+
 namespace soilvol::server {
 namespace {
 
@@ -12,7 +15,11 @@ class EstimateStream final
   public:
     EstimateStream(grpc::CallbackServerContext* context, SoilVolumeHandlers& handlers,
                    Dispatcher& dispatcher)
-        : context_(context), handlers_(handlers), dispatcher_(dispatcher) {
+        : context_(context),
+          handlers_(handlers),
+          dispatcher_(dispatcher),
+          request_id_(GrpcCallContext(context, "StreamEstimates").request_id) {
+        context_->AddInitialMetadata("x-request-id", request_id_);
         StartRead(&request_);
     }
 
@@ -24,17 +31,15 @@ class EstimateStream final
         response_.Clear();
         response_.set_sequence(sequence_++);
         response_.set_request_id(request_.request_id());
+        CallContext call = GrpcCallContext(context_, "StreamEstimates");
+        call.request_id = request_id_;  // one per stream, as echoed
         dispatcher_.Submit(
-            GrpcCallContext(context_, "StreamEstimates"),
+            std::move(call),
             [this](CallRecord& record) {
                 return handlers_.EstimateVolume(request_, response_.mutable_estimate(), record);
             },
             [this](const absl::Status& status) {
-                if (!status.ok()) {
-                    v1::Error* error = response_.mutable_error();
-                    error->set_code(static_cast<int>(status.code()));
-                    error->set_message(std::string(status.message()));
-                }
+                if (!status.ok()) *response_.mutable_error() = RpcStatusOf(status);
                 StartWrite(&response_);
             });
     }
@@ -55,6 +60,7 @@ class EstimateStream final
     Dispatcher& dispatcher_;
     v1::EstimateVolumeRequest request_;
     v1::StreamEstimatesResponse response_;
+    const std::string request_id_;
     int64_t sequence_ = 0;
 };
 
@@ -62,8 +68,9 @@ class EstimateStream final
 
 grpc::Status ToGrpcStatus(const absl::Status& status) {
     if (status.ok()) return grpc::Status::OK;
-    return grpc::Status(static_cast<grpc::StatusCode>(status.code()),
-                        std::string(status.message()));
+    // The details travel as the google.rpc.Status in the grpc-status-details-bin trailer.
+    return grpc::Status(static_cast<grpc::StatusCode>(status.code()), SafeMessage(status.message()),
+                        RpcStatusBytes(status));
 }
 
 CallContext GrpcCallContext(grpc::CallbackServerContext* context, const char* method) {
@@ -85,6 +92,14 @@ CallContext GrpcCallContext(grpc::CallbackServerContext* context, const char* me
     if (auto found = metadata.find("authorization"); found != metadata.end()) {
         call.authorization.assign(found->second.data(), found->second.size());
     }
+    const auto found_id = metadata.find("x-request-id");
+    call.request_id =
+        RequestIdOf(found_id == metadata.end()
+                        ? std::string_view()
+                        : std::string_view(found_id->second.data(), found_id->second.size()));
+    if (auto found = metadata.find("traceparent"); found != metadata.end()) {
+        call.trace_id = TraceIdOf(std::string_view(found->second.data(), found->second.size()));
+    }
     // The TLS layer verified the certificate (mTLS); its subject names the caller.
     const std::shared_ptr<const grpc::AuthContext> auth = context->auth_context();
     if (auth != nullptr && auth->IsPeerAuthenticated()) {
@@ -104,8 +119,10 @@ grpc::ServerUnaryReactor* SoilVolumeService::Unary(grpc::CallbackServerContext* 
                                                    const char* method, const Request* request,
                                                    Response* response) {
     grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+    CallContext call = GrpcCallContext(context, method);
+    context->AddInitialMetadata("x-request-id", call.request_id);
     dispatcher_.Submit(
-        GrpcCallContext(context, method),
+        std::move(call),
         [this, request, response](CallRecord& record) {
             return (handlers_.*handler)(*request, response, record);
         },
@@ -130,6 +147,7 @@ SOILVOL_UNARY_RPC(GetContainer, GetContainerRequest, Container)
 SOILVOL_UNARY_RPC(ListContainers, ListContainersRequest, ListContainersResponse)
 SOILVOL_UNARY_RPC(DeleteContainer, DeleteContainerRequest, DeleteContainerResponse)
 SOILVOL_UNARY_RPC(EstimateVolume, EstimateVolumeRequest, EstimateVolumeResponse)
+SOILVOL_UNARY_RPC(GetServerInfo, GetServerInfoRequest, ServerInfo)
 #undef SOILVOL_UNARY_RPC
 
 grpc::ServerBidiReactor<v1::EstimateVolumeRequest, v1::StreamEstimatesResponse>*

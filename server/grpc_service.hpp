@@ -39,6 +39,9 @@ class SoilVolumeService final : public v1::SoilVolume::CallbackService {
     grpc::ServerUnaryReactor* EstimateVolume(grpc::CallbackServerContext* context,
                                              const v1::EstimateVolumeRequest* request,
                                              v1::EstimateVolumeResponse* response) override;
+    grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,
+                                            const v1::GetServerInfoRequest* request,
+                                            v1::ServerInfo* response) override;
     grpc::ServerBidiReactor<v1::EstimateVolumeRequest, v1::StreamEstimatesResponse>*
     StreamEstimates(grpc::CallbackServerContext* context) override;
 

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "google/protobuf/util/json_util.h"
+#include "server/call_ids.hpp"
 #include "server/status_map.hpp"
 
 namespace soilvol::server {
@@ -199,9 +200,8 @@ HttpResponse HttpGateway::ErrorResponse(const absl::Status& status, const std::s
     } else if (status.code() == absl::StatusCode::kPermissionDenied) {
         response.headers.Set("WWW-Authenticate",
                              R"(Bearer realm="soilvol", error="insufficient_scope")");
-    } else if (status.code() == absl::StatusCode::kResourceExhausted ||
-               status.code() == absl::StatusCode::kUnavailable) {
-        response.headers.Set("Retry-After", "1");
+    } else if (const int seconds = RetryAfterSeconds(status); seconds > 0) {
+        response.headers.Set("Retry-After", std::to_string(seconds));
     }
     if (shutting_down_) response.headers.Set("Connection", "close");
     return response;
@@ -214,6 +214,8 @@ CallContext HttpGateway::ContextOf(const HttpRequest& request, const std::string
     call.peer = request.peer;
     call.authorization = request.headers.Get("Authorization");
     call.tls_identity = request.tls_identity;
+    call.request_id = RequestIdOf(request.headers.Get("X-Request-Id"));
+    call.trace_id = TraceIdOf(request.headers.Get("traceparent"));
     return call;
 }
 
@@ -307,31 +309,37 @@ void HttpGateway::ServeRpc(const RouteMatch& match, HttpRequest request,
                            std::shared_ptr<HttpExchange> exchange) {
     const std::string origin = request.headers.Get("Origin");
     CallContext call = ContextOf(request, match.route->method);
+    const std::string request_id = call.request_id;
+    // Every answer names the call's request id, as the log line does.
+    const auto tagged = [request_id](HttpResponse response) {
+        response.headers.Set("X-Request-Id", request_id);
+        return response;
+    };
     if (request.headers.Has("Grpc-Timeout")) {
         absl::StatusOr<double> ms = ParseGrpcTimeout(request.headers.Get("Grpc-Timeout"));
         if (!ms.ok()) {
             dispatcher_.Refuse(call, ms.status());
-            return exchange->Respond(ErrorResponse(ms.status(), origin));
+            return exchange->Respond(tagged(ErrorResponse(ms.status(), origin)));
         }
         call.deadline = call.received + std::chrono::duration_cast<Clock::duration>(
                                             std::chrono::duration<double, std::milli>(*ms));
         // The caller hears of its deadline on time even when its call still waits for a worker.
         exchange->RespondBy(
             call.deadline + std::chrono::milliseconds(50),
-            ErrorResponse(absl::DeadlineExceededError("deadline expired before an answer"),
-                          origin));
+            tagged(ErrorResponse(absl::DeadlineExceededError("deadline expired before an answer"),
+                                 origin)));
     }
     call.cancelled = [exchange] { return exchange->Gone(); };
     auto rest = std::make_shared<RestCall>(RestCall{
         &rpcs_.at(match.route->method), match.route, match.fields, std::move(request), {}});
     dispatcher_.Submit(
         std::move(call), [rest](CallRecord& record) { return BindAndCall(*rest, record); },
-        [this, rest, exchange, origin](const absl::Status& status) {
-            if (!status.ok()) return exchange->Respond(ErrorResponse(status, origin));
+        [this, rest, exchange, origin, tagged](const absl::Status& status) {
+            if (!status.ok()) return exchange->Respond(tagged(ErrorResponse(status, origin)));
             HttpResponse response = JsonResponse(200, std::move(rest->json));
             ApplyCors(origin, response.headers);
             if (shutting_down_) response.headers.Set("Connection", "close");
-            exchange->Respond(std::move(response));
+            exchange->Respond(tagged(std::move(response)));
         });
 }
 

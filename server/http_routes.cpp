@@ -207,7 +207,7 @@ absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std
                          google::protobuf::Message* message) {
     if (route.body == "*" && !body.empty()) {
         google::protobuf::util::JsonParseOptions options;
-        options.ignore_unknown_fields = false;
+        options.ignore_unknown_fields = true;  // as grpc-gateway: newer clients, older servers
         const auto parsed = google::protobuf::util::JsonStringToMessage(body, message, options);
         if (!parsed.ok()) {
             return absl::InvalidArgumentError(

@@ -42,7 +42,7 @@ absl::StatusOr<RouteMatch> MatchRoute(const std::vector<HttpRoute>& routes, cons
                                       const std::string& path);
 
 /// Fills `message` (the route's request message) as grpc-gateway does: the body as proto3 JSON
-/// when the route takes one (body "*"; unknown fields refused), the path values, then the query
+/// when the route takes one (body "*"; unknown fields ignored), the path values, then the query
 /// parameters (scalar fields by proto or JSON name; none on a route that takes the body).
 /// InvalidArgument naming the field or parameter at fault.
 absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std::string>& path,

@@ -184,11 +184,41 @@ class BodyReservation {
     std::uint64_t bytes_ = 0;
 };
 
-HttpResponse ErrorResponse(int status, absl::StatusCode code, const std::string& message) {
+HttpResponse ErrorResponse(int status, const absl::Status& error) {
     HttpResponse response;
     response.status = status;
-    response.body = ErrorJson(absl::Status(code, message));
+    response.body = ErrorJson(error);
+    if (const int seconds = RetryAfterSeconds(error); seconds > 0) {
+        response.headers.Set("Retry-After", std::to_string(seconds));
+    }
     return response;
+}
+
+HttpResponse ErrorResponse(int status, absl::StatusCode code, const std::string& message) {
+    absl::Status error(code, message);
+    // Too large stays too large: no retry hint.
+    if (status == 413) error = WithReason(std::move(error), kReasonTooLarge);
+    return ErrorResponse(status, error);
+}
+
+HttpResponse UploadBudgetFull() {
+    return ErrorResponse(
+        429,
+        WithReason(absl::ResourceExhaustedError("server busy receiving other uploads; retry later"),
+                   "UPLOAD_BUDGET_FULL"));
+}
+
+/// The answer to one connection too many, written without blocking before the close.
+const std::string& TooManyConnections() {
+    static const std::string kBusy = [] {
+        const std::string body = ErrorJson(WithReason(
+            absl::UnavailableError("too many connections; retry later"), "TOO_MANY_CONNECTIONS"));
+        return absl::StrCat(
+            "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/json\r\n"
+            "Retry-After: 1\r\nConnection: close\r\nContent-Length: ",
+            body.size(), "\r\n\r\n", body);
+    }();
+    return kBusy;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -373,11 +403,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
         }
         body_ = std::make_unique<BodyReservation>(shared_);
         if (!body_->GrowTo(head_.content_length.value_or(0))) {
-            HttpResponse busy = ErrorResponse(429, absl::StatusCode::kResourceExhausted,
-                                              "server busy receiving other uploads; retry later");
-            busy.headers.Set("Retry-After", "1");
             close_after_ = has_body;
-            return Write(std::move(busy));
+            return Write(UploadBudgetFull());
         }
         if (!has_body) return Dispatch();
         body_started_ = Clock::now();
@@ -422,11 +449,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
             return Refuse(400, absl::StatusCode::kInvalidArgument, "malformed HTTP request body");
         const std::uint64_t received = parser_->get().body().size();
         if (!body_->GrowTo(received)) {
-            HttpResponse busy = ErrorResponse(429, absl::StatusCode::kResourceExhausted,
-                                              "server busy receiving other uploads; retry later");
-            busy.headers.Set("Retry-After", "1");
             close_after_ = true;
-            return Write(std::move(busy));
+            return Write(UploadBudgetFull());
         }
         const double seconds = std::chrono::duration<double>(Clock::now() - body_started_).count();
         if (Clock::now() - body_started_ > limits().body_grace &&
@@ -629,13 +653,10 @@ struct HttpServer::Impl {
         if (s.stats.open.load() >= static_cast<std::int64_t>(s.options.limits.max_connections)) {
             ++s.stats.refused;
             // Best effort, never blocking: the client learns why before the close.
-            static constexpr char kBusy[] =
-                "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/json\r\n"
-                "Retry-After: 1\r\nConnection: close\r\nContent-Length: 79\r\n\r\n"
-                R"({"code":14,"message":"too many connections; retry later","details":[]}      )";
+            const std::string& busy = TooManyConnections();
             beast::error_code ignored;
             socket.non_blocking(true, ignored);
-            socket.write_some(net::buffer(kBusy, sizeof(kBusy) - 1), ignored);
+            socket.write_some(net::buffer(busy.data(), busy.size()), ignored);
             socket.shutdown(tcp::socket::shutdown_both, ignored);
             return;
         }

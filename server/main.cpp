@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "CLI/CLI.hpp"
+#include "core/common/build_info.hpp"
 #include "core/stereo/calibration.hpp"
 #include "server/cpu_budget.hpp"
 #include "server/logging.hpp"
@@ -115,6 +116,7 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
 
 int main(int argc, char** argv) {
     CLI::App app{"soilvol-server: volume of soil in containers, over gRPC and REST"};
+    app.set_version_flag("--version", soilvol::VersionLine("soilvol-server"));
     soilvol::server::ServerOptions options;
     try {
         options = ParseFlags(app, argc, argv);
@@ -161,7 +163,9 @@ int main(int argc, char** argv) {
          {"cpus", resolved.cpus},
          {"workers", resolved.workers},
          {"threads_per_call", soilvol::server::ThreadsPerCall(resolved.cpus, resolved.workers)},
-         {"max_queue", resolved.max_queue}});
+         {"max_queue", resolved.max_queue},
+         {"version", soilvol::GetBuildInfo().version},
+         {"revision", soilvol::GetBuildInfo().revision}});
     std::thread waiter([&server, &signals] {
         int signal = 0;
         sigwait(&signals, &signal);

@@ -1,5 +1,6 @@
 #include "server/metrics.hpp"
 
+#include "core/common/build_info.hpp"
 #include "prometheus/counter.h"
 #include "prometheus/gauge.h"
 #include "prometheus/histogram.h"
@@ -43,12 +44,21 @@ struct Metrics::Impl {
     prometheus::Gauge& max_queue =
         MakeGauge("soilvol_max_queue", "Requests that may wait for a worker before refusals");
 
+    prometheus::Gauge& build_info = prometheus::BuildGauge()
+                                        .Name("soilvol_build_info")
+                                        .Help("1, labelled with the server's version and build")
+                                        .Register(*registry)
+                                        .Add({{"version", GetBuildInfo().version},
+                                              {"revision", GetBuildInfo().revision},
+                                              {"build_type", GetBuildInfo().build_type}});
+
     prometheus::Gauge& MakeGauge(const std::string& name, const std::string& help) {
         return prometheus::BuildGauge().Name(name).Help(help).Register(*registry).Add({});
     }
 };
 
-Metrics::Metrics() : impl_(std::make_unique<Impl>()) {}
+Metrics::Metrics() : impl_(std::make_unique<Impl>()) { impl_->build_info.Set(1.0); }
+
 Metrics::~Metrics() = default;
 
 void Metrics::RecordRequest(std::string_view method, std::string_view transport,

@@ -1,11 +1,15 @@
 #include "server/proto_convert.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
 
 namespace soilvol::server {
 namespace {
+
+/// A sensor sees a container within this range; a pose beyond it is a unit mistake.
+constexpr double kMaxCoordinateM = 1000.0;
 
 absl::Status Invalid(const std::string& field, const std::string& problem) {
     return absl::InvalidArgumentError(absl::StrCat(field, ": ", problem));
@@ -183,6 +187,49 @@ void ToProto(const model::ContainerModel& model, v1::Container* proto) {
     proto->set_alignment_points(static_cast<int32_t>(model.alignment_points.size()));
     proto->set_observed_share(model.observed_share);
     proto->set_empty_scans(static_cast<int32_t>(model.cavity.size()));
+    ToProto(model.opening.T_scan_container, proto->mutable_container_pose());
+}
+
+absl::StatusOr<Pose> ToPose(const v1::Pose& proto, const std::string& field) {
+    const v1::Point3& p = proto.position_m();
+    const v1::Quaternion& q = proto.orientation();
+    for (const double value : {p.x(), p.y(), p.z(), q.w(), q.x(), q.y(), q.z()}) {
+        if (!std::isfinite(value)) {
+            return absl::InvalidArgumentError(absl::StrCat(field, ": values must be finite"));
+        }
+    }
+    if (std::abs(p.x()) > kMaxCoordinateM || std::abs(p.y()) > kMaxCoordinateM ||
+        std::abs(p.z()) > kMaxCoordinateM) {
+        return absl::InvalidArgumentError(absl::StrCat(field, ".position_m: farther than ",
+                                                       kMaxCoordinateM, " m from the sensor"));
+    }
+    Eigen::Quaterniond rotation(q.w(), q.x(), q.y(), q.z());
+    const double norm = rotation.norm();
+    if (norm == 0.0) {
+        rotation = Eigen::Quaterniond::Identity();
+    } else if (std::abs(norm - 1.0) > 1e-3) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(field, ".orientation: is not a unit quaternion (norm ", norm, ")"));
+    }
+    Pose pose = Pose::Identity();
+    pose.linear() = rotation.normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(p.x(), p.y(), p.z());
+    return pose;
+}
+
+void ToProto(const Pose& pose, v1::Pose* proto) {
+    v1::Point3* position = proto->mutable_position_m();
+    position->set_x(pose.translation().x());
+    position->set_y(pose.translation().y());
+    position->set_z(pose.translation().z());
+    Eigen::Quaterniond q(pose.linear());
+    q.normalize();
+    if (q.w() < 0.0) q.coeffs() *= -1.0;  // one of the two equal quaternions: w >= 0
+    v1::Quaternion* orientation = proto->mutable_orientation();
+    orientation->set_w(q.w());
+    orientation->set_x(q.x());
+    orientation->set_y(q.y());
+    orientation->set_z(q.z());
 }
 
 void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto) {
@@ -212,6 +259,16 @@ void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeRespons
     coverage->set_model_observed_share(estimate.volume.empty_observed_share);
     coverage->set_scan_observed_share(estimate.volume.scan_observed_share);
     coverage->set_unobserved_uncertainty_m3(estimate.volume.unobserved_uncertainty_m3);
+    ToProto(estimate.alignment.T_scan_container, proto->mutable_container_pose());
+    if (estimate.from_kinematic) {
+        v1::PoseDifference* difference = proto->mutable_pose_difference();
+        const Eigen::Vector3d& t = estimate.from_kinematic->translation_m;
+        difference->mutable_translation_m()->set_x(t.x());
+        difference->mutable_translation_m()->set_y(t.y());
+        difference->mutable_translation_m()->set_z(t.z());
+        difference->set_distance_m(estimate.from_kinematic->distance_m);
+        difference->set_rotation_deg(estimate.from_kinematic->rotation_deg);
+    }
 }
 
 }  // namespace soilvol::server

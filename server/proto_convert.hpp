@@ -30,6 +30,10 @@ void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto);
 void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto);
 /// The model's figures; ids, provenance and time are the caller's.
 void ToProto(const model::ContainerModel& model, v1::Container* proto);
+/// A pose from the API: finite values and a unit quaternion (within 1e-3; all zero is the
+/// identity), else InvalidArgument naming `field`.
+absl::StatusOr<Pose> ToPose(const v1::Pose& proto, const std::string& field);
+void ToProto(const Pose& pose, v1::Pose* proto);
 /// The estimate's figures into `proto` (stereo timings separately, by the caller).
 void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto);
 

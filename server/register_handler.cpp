@@ -50,10 +50,12 @@ absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmpty
 
 absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRequest& request,
                                                    v1::Container* response, CallRecord& record) {
-    SOILVOL_ASSIGN_OR_RETURN(const std::string id,
-                             ClaimId(EntryKind::kContainer, request.container_id(), "container_id",
-                                     request.overwrite()));
+    const Create create{EntryKind::kContainer, request.container_id(), "container_id",
+                        request.overwrite(),   request.etag(),         request.request_id()};
+    bool replayed = false;
+    SOILVOL_ASSIGN_OR_RETURN(const std::string id, ClaimId(create, response, &replayed));
     record.ids.push_back({"container", id});
+    if (replayed) return absl::OkStatus();
     if (!request.has_opening()) {
         return absl::InvalidArgumentError("opening: is required (corners or pixel_corners)");
     }
@@ -104,9 +106,7 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
     if (request.has_max_range_m()) response->set_max_range_m(request.max_range_m());
     *response->mutable_create_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
     SOILVOL_RETURN_IF_ERROR(record.stop.Check("registration, before storing it"));
-    return store_.Put(EntryKind::kContainer, id,
-                      EncodeStoredRecord(*response, model::EncodeModel(*model)),
-                      request.overwrite());
+    return Store(create, id, response, model::EncodeModel(*model));
 }
 
 }  // namespace soilvol::server

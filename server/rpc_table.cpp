@@ -1,5 +1,7 @@
 #include "server/rpc_table.hpp"
 
+#include "absl/strings/str_cat.h"
+
 namespace soilvol::server {
 namespace {
 
@@ -31,7 +33,28 @@ std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& h) {
         {"ListContainers", MakeRpc(h, &H::ListContainers)},
         {"DeleteContainer", MakeRpc(h, &H::DeleteContainer)},
         {"EstimateVolume", MakeRpc(h, &H::EstimateVolume)},
+        {"GetServerInfo", MakeRpc(h, &H::GetServerInfo)},
     };
+}
+
+absl::Status CheckRpcTable(const std::map<std::string, Rpc>& table,
+                           const google::protobuf::ServiceDescriptor& service) {
+    for (int i = 0; i < service.method_count(); ++i) {
+        const google::protobuf::MethodDescriptor& method = *service.method(i);
+        if (method.client_streaming() || method.server_streaming()) continue;
+        const auto found = table.find(method.name());
+        if (found == table.end()) {
+            return absl::InternalError(
+                absl::StrCat("RPC ", method.full_name(), " has no handler in the RPC table"));
+        }
+        if (found->second.new_request()->GetDescriptor() != method.input_type() ||
+            found->second.new_response()->GetDescriptor() != method.output_type()) {
+            return absl::InternalError(absl::StrCat("RPC ", method.full_name(),
+                                                    ": the table's messages differ from the "
+                                                    "service's"));
+        }
+    }
+    return absl::OkStatus();
 }
 
 }  // namespace soilvol::server

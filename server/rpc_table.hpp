@@ -6,6 +6,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "google/protobuf/descriptor.h"
 #include "google/protobuf/message.h"
 #include "server/dispatcher.hpp"
 #include "server/soilvol_handlers.hpp"
@@ -23,5 +24,11 @@ struct Rpc {
 
 /// Every unary RPC of soilvol.v1.SoilVolume by name ("EstimateVolume"), calling `handlers`.
 std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& handlers);
+
+/// Internal naming the first RPC that `service` declares unary (every one is annotated for
+/// REST) but `table` has no entry for, or whose messages differ from the descriptor's: the
+/// server refuses to start rather than answer such a route with a 500.
+absl::Status CheckRpcTable(const std::map<std::string, Rpc>& table,
+                           const google::protobuf::ServiceDescriptor& service);
 
 }  // namespace soilvol::server

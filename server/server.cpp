@@ -5,6 +5,7 @@
 #include <mutex>
 
 #include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
 #include "core/pipeline/parallelism.hpp"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/grpcpp.h"
@@ -168,6 +169,8 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     if (api == nullptr) return absl::InternalError("soilvol.v1.SoilVolume is not linked in");
     absl::StatusOr<std::vector<HttpRoute>> routes = RoutesFromAnnotations(*api);
     if (!routes.ok()) return routes.status();
+    std::map<std::string, Rpc> rpcs = MakeRpcTable(*p.handlers);
+    SOILVOL_RETURN_IF_ERROR(CheckRpcTable(rpcs, *api));
     HttpGatewayOptions http;
     http.server.address = o.http_address;
     http.server.io_threads = o.http_threads;
@@ -188,7 +191,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     http.probe_address = o.probe_address;
     HealthService* health = p.health.get();
     p.gateway = std::make_unique<HttpGateway>(
-        http, MakeRpcTable(*p.handlers), *std::move(routes), *p.dispatcher, p.metrics, [health] {
+        http, std::move(rpcs), *std::move(routes), *p.dispatcher, p.metrics, [health] {
             return health->StatusOf("") == grpc::health::v1::HealthCheckResponse::SERVING;
         });
 

@@ -46,6 +46,9 @@ class SoilVolumeHandlers {
     absl::Status EstimateVolume(const v1::EstimateVolumeRequest& request,
                                 v1::EstimateVolumeResponse* response, CallRecord& record);
 
+    absl::Status GetServerInfo(const v1::GetServerInfoRequest& request, v1::ServerInfo* response,
+                               CallRecord& record);
+
     /// Readiness: the data directory takes writes.
     absl::Status CheckReady() const { return store_.CheckWritable(); }
 
@@ -78,15 +81,38 @@ class SoilVolumeHandlers {
     absl::StatusOr<std::vector<pipeline::EmptyScan>> DecodeEmptyScans(
         const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
         CallRecord& record) const;
-    /// The request's id, or a new one when it is empty; AlreadyExists when taken and
-    /// `overwrite` is false (checked again atomically when the entry is written).
-    absl::StatusOr<std::string> ClaimId(EntryKind kind, const std::string& id,
-                                        const std::string& field, bool overwrite) const;
+    /// What a create asks of its entry's id (AIP-133, AIP-155 request_id, AIP-154 etag).
+    struct Create {
+        EntryKind kind;
+        const std::string& id;
+        const char* id_field;
+        bool overwrite;
+        const std::string& etag;
+        const std::string& request_id;
+    };
+    /// The id `create` writes: the request's, or one the server picks (derived from the
+    /// request_id when there is one). When the entry exists and was made by a request with the
+    /// same request_id, sets `replayed` and leaves that entry's info in `stored`: the retry gets
+    /// the first result. Otherwise AlreadyExists when taken and not overwrite, Aborted when
+    /// overwrite names a stale etag, InvalidArgument for an etag without overwrite.
+    absl::StatusOr<std::string> ClaimId(const Create& create, google::protobuf::Message* stored,
+                                        bool* replayed) const;
+    /// Writes `info` (given its create_request_id and a new etag) and `body` under `id`. A
+    /// concurrent retry of the same request that wrote first makes `info` its entry's.
+    absl::Status Store(const Create& create, const std::string& id, google::protobuf::Message* info,
+                       std::string_view body);
+    /// The stored info of an entry (NotFound when absent).
+    absl::Status ReadInfo(EntryKind kind, const std::string& id,
+                          google::protobuf::Message* info) const;
+    /// Deletes an entry, only at `etag` when one is given.
+    absl::Status DeleteEntry(EntryKind kind, const std::string& id, const char* field,
+                             const std::string& etag);
 
     static absl::StatusOr<CalibrationEntry> DecodeCalibration(const StoredEntry& entry);
     static absl::StatusOr<ContainerEntry> DecodeContainer(const StoredEntry& entry);
 
     EntryStore& store_;
+    const google::protobuf::Timestamp start_time_;
     mutable EntryCache<CalibrationEntry> calibrations_;
     mutable EntryCache<ContainerEntry> containers_;
 };

@@ -23,6 +23,7 @@
 
 #include "absl/strings/str_format.h"
 #include "bench/trial.hpp"
+#include "core/common/build_info.hpp"
 #include "core/common/statistics.hpp"
 #include "core/io/cloud_codec.hpp"
 #include "google/protobuf/util/json_util.h"
@@ -263,6 +264,7 @@ int Run(const Options& options) {
 int main(int argc, char** argv) {
     soilvol::bench::Options options;
     CLI::App app{"soilvol-load: round trips and throughput of a running soilvol-server"};
+    app.set_version_flag("--version", soilvol::VersionLine("soilvol-load"));
     app.add_option("--grpc", options.grpc_address, "server gRPC address (host:port)");
     app.add_option("--http", options.http_address, "server REST address (host:port)");
     app.add_option("--transport", options.transport, "grpc or rest")

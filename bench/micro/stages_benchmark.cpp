@@ -5,14 +5,17 @@
 #include <benchmark/benchmark.h>
 
 #include <cstddef>
+#include <iostream>
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "bench/trial.hpp"
 #include "core/cloud/outlier_filter.hpp"
 #include "core/cloud/preprocess.hpp"
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/build_info.hpp"
 #include "core/io/cloud_codec.hpp"
 #include "core/model/container_model.hpp"
 #include "core/pipeline/estimator.hpp"
@@ -142,4 +145,14 @@ BENCHMARK(BM_Estimate)->Apply(Sizes);
 }  // namespace
 }  // namespace soilvol::bench
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+    if (argc == 2 && std::string_view(argv[1]) == "--version") {
+        std::cout << soilvol::VersionLine("soilvol-microbench") << "\n";
+        return 0;
+    }
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}

@@ -26,8 +26,14 @@ absl::Status CheckContents(const volume::VolumeResult& volume, const EstimateCon
         100.0 * share, volume.cells.below_empty, both, 100.0 * config.max_below_empty_share));
 }
 
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kMaxKinematicSigmaM = 1.0;
+constexpr double kMaxKinematicSigmaDeg = 30.0;
+/// Correspondences farther apart than this match the wrong surfaces whatever the pose's error.
+constexpr double kMaxKinematicReachM = 1.0;
+
 double TurnDeg(const Pose& a, const Pose& b) {
-    return Eigen::AngleAxisd((a.inverse() * b).linear()).angle() * 180.0 / 3.14159265358979;
+    return Eigen::AngleAxisd((a.inverse() * b).linear()).angle() * 180.0 / kPi;
 }
 
 // A local alignment that explains little of the model is checked against a global search on
@@ -119,14 +125,79 @@ absl::Status CheckUncertainty(const VolumeEstimate& estimate, const model::Conta
         1000.0 * v.unobserved_uncertainty_m3));
 }
 
+/// The coarse alignment searches as far as the kinematic pose may be off (3 sigmas of position
+/// plus what 3 sigmas of rotation move the container's farthest corner), at least as far as
+/// it does from the registered pose.
+align::AlignConfig KinematicSearch(const model::ContainerModel& model,
+                                   const EstimateConfig& config) {
+    align::AlignConfig align = config.align;
+    double radius = 0.0;
+    for (const Eigen::Vector2d& corner : model.opening.polygon.Vertices()) {
+        radius = std::max(radius, corner.norm());
+    }
+    const double reach =
+        config.kinematic_sigmas * (config.kinematic_position_sigma_m +
+                                   radius * config.kinematic_orientation_sigma_deg * kPi / 180.0);
+    // Never narrower than without kinematics: a narrow search stops short of the true pose.
+    align.coarse_max_correspondence_m =
+        std::clamp(reach, align.coarse_max_correspondence_m, kMaxKinematicReachM);
+    align.coarse_column_margin_m =
+        std::max(align.coarse_column_margin_m, align.coarse_max_correspondence_m);
+    return align;
+}
+
+absl::Status CheckKinematic(const PoseDifference& difference, const EstimateConfig& config) {
+    const double max_m =
+        config.kinematic_sigmas * config.kinematic_position_sigma_m + config.kinematic_floor_m;
+    const double max_deg = config.kinematic_sigmas * config.kinematic_orientation_sigma_deg +
+                           config.kinematic_floor_deg;
+    if (difference.distance_m <= max_m && difference.rotation_deg <= max_deg) {
+        return absl::OkStatus();
+    }
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "container_pose: the scan puts the container %.3f m and %.2f deg from the given pose, "
+        "more than the stated accuracy allows (%.3f m, %.2f deg at %.0f sigmas); check the "
+        "kinematics and the sensor mount, or state a larger accuracy",
+        difference.distance_m, difference.rotation_deg, max_m, max_deg, config.kinematic_sigmas));
+}
+
 }  // namespace
+
+PoseDifference DifferenceOf(const Pose& given, const Pose& found) {
+    PoseDifference out;
+    out.translation_m = found.translation() - given.translation();
+    out.distance_m = out.translation_m.norm();
+    out.rotation_deg = TurnDeg(given, found);
+    return out;
+}
+
+absl::Status SetKinematicAccuracy(double position_sigma_m, double orientation_sigma_deg,
+                                  EstimateConfig& config) {
+    if (!std::isfinite(position_sigma_m) || position_sigma_m < 0.0 ||
+        position_sigma_m > kMaxKinematicSigmaM) {
+        return absl::InvalidArgumentError(
+            absl::StrFormat("container_pose.position_sigma_m: must be in [0, %g] metres (0: %g)",
+                            kMaxKinematicSigmaM, config.kinematic_position_sigma_m));
+    }
+    if (!std::isfinite(orientation_sigma_deg) || orientation_sigma_deg < 0.0 ||
+        orientation_sigma_deg > kMaxKinematicSigmaDeg) {
+        return absl::InvalidArgumentError(absl::StrFormat(
+            "container_pose.orientation_sigma_deg: must be in [0, %g] degrees (0: %g)",
+            kMaxKinematicSigmaDeg, config.kinematic_orientation_sigma_deg));
+    }
+    if (position_sigma_m > 0.0) config.kinematic_position_sigma_m = position_sigma_m;
+    if (orientation_sigma_deg > 0.0) config.kinematic_orientation_sigma_deg = orientation_sigma_deg;
+    return absl::OkStatus();
+}
 
 absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, const Cloud& scan,
                                         const EstimateConfig& config, const StopToken& stop) {
     // Sec. 3.3: align the model's outside to the scan.
     ScanAlignment out;
     const Pose initial = config.initial_T_scan_container.value_or(model.opening.T_scan_container);
-    out.alignment = model::AlignModel(model, scan, initial, config.align, stop);
+    out.alignment = model::AlignModel(
+        model, scan, initial,
+        config.initial_T_scan_container ? KinematicSearch(model, config) : config.align, stop);
     SOILVOL_RETURN_IF_ERROR(stop.Check("alignment"));
     if (!config.initial_T_scan_container && config.method == volume::Method::kHeightmap &&
         config.global_search_below_fitness >= 0.0 &&
@@ -137,6 +208,10 @@ absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, cons
             SearchWider(model, scan, initial, std::move(out.alignment), config, stop));
     }
     SOILVOL_RETURN_IF_ERROR(align::CheckAlignment(out.alignment, config.gate));
+    if (config.initial_T_scan_container) {
+        out.from_kinematic = DifferenceOf(initial, out.alignment.T_scan_container);
+        SOILVOL_RETURN_IF_ERROR(CheckKinematic(*out.from_kinematic, config));
+    }
     SOILVOL_ASSIGN_OR_RETURN(out.seen_through, CheckFreeSpace(model, scan, out.alignment, config));
     return out;
 }
@@ -194,6 +269,7 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     SOILVOL_ASSIGN_OR_RETURN(ScanAlignment aligned, AlignScan(model, pre.points, config, stop));
     estimate.alignment = std::move(aligned.alignment);
     estimate.seen_through = aligned.seen_through;
+    estimate.from_kinematic = aligned.from_kinematic;
     estimate.timings.align_ms = timer.Lap();  // the gate belongs to the alignment
     // Sec. 3.4: grid and integrate in the container frame.
     SOILVOL_RETURN_IF_ERROR(stop.Check("volume integration"));

@@ -39,6 +39,14 @@ struct EstimateConfig {
     /// Container pose in the scan frame from the machine's kinematics; default: the pose it had
     /// in the empty scan.
     std::optional<Pose> initial_T_scan_container;
+    /// The kinematic pose's expected accuracy (1 sigma): the coarse alignment searches 3 sigmas
+    /// around it, and an alignment farther than `kinematic_sigmas` sigmas plus the floors from
+    /// it is refused (FailedPrecondition): the kinematics or the scan is wrong.
+    double kinematic_position_sigma_m = 0.05;
+    double kinematic_orientation_sigma_deg = 2.0;
+    double kinematic_sigmas = 3.0;
+    double kinematic_floor_m = 0.02;
+    double kinematic_floor_deg = 1.0;
     /// Without a kinematic pose, an alignment that fails the gate or matches less than this
     /// share of the model's outside is checked against a global search (`global`, 100-200 ms):
     /// the better explanation of the scan wins by `global_fitness_margin`, and two different
@@ -62,6 +70,20 @@ struct StageTimings {
     double total_ms = 0.0;
 };
 
+/// The pose an alignment found against the one it was given.
+struct PoseDifference {
+    Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();  ///< found - given, scan frame
+    double distance_m = 0.0;
+    double rotation_deg = 0.0;  ///< angle of the rotation between the two
+};
+
+PoseDifference DifferenceOf(const Pose& given, const Pose& found);
+
+/// InvalidArgument naming the field when a kinematic accuracy is out of range (position
+/// (0, 1] m, orientation (0, 30] degrees; 0 takes the default).
+absl::Status SetKinematicAccuracy(double position_sigma_m, double orientation_sigma_deg,
+                                  EstimateConfig& config);
+
 struct VolumeEstimate {
     double volume_m3 = 0.0;
     double uncertainty_m3 = 0.0;     ///< 1-sigma: per-cell statistics and alignment
@@ -73,12 +95,15 @@ struct VolumeEstimate {
     StageTimings timings;
     std::size_t input_points = 0;
     std::size_t preprocessed_points = 0;
+    /// Set when the config gave a kinematic pose.
+    std::optional<PoseDifference> from_kinematic;
 };
 
 /// The alignment of the model to a preprocessed scan that passed every gate.
 struct ScanAlignment {
     align::AlignResult alignment;
     align::SeenThrough seen_through;
+    std::optional<PoseDifference> from_kinematic;
 };
 
 /// Sec. 3.3: aligns the model's outside to the preprocessed scan (from the configured or the

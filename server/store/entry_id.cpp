@@ -24,20 +24,21 @@ std::string Quoted(char c) {
 
 absl::Status ValidateId(std::string_view id, std::string_view field) {
     constexpr absl::string_view kRule = " (allowed: [A-Za-z0-9][A-Za-z0-9._-]{0,63})";
-    if (id.empty()) return absl::InvalidArgumentError(absl::StrCat(AbslView(field), " is empty"));
+    if (id.empty()) return absl::InvalidArgumentError(absl::StrCat(AbslView(field), ": is empty"));
     if (id.size() > kMaxIdLength) {
-        return absl::InvalidArgumentError(absl::StrCat(AbslView(field), " is too long (", id.size(),
-                                                       " characters, limit ", kMaxIdLength, ")"));
+        return absl::InvalidArgumentError(absl::StrCat(AbslView(field), ": is too long (",
+                                                       id.size(), " characters, limit ",
+                                                       kMaxIdLength, ")"));
     }
     if (!IsAlnum(id[0])) {
         return absl::InvalidArgumentError(absl::StrCat(
-            AbslView(field), " must start with a letter or digit, not ", Quoted(id[0]), kRule));
+            AbslView(field), ": must start with a letter or digit, not ", Quoted(id[0]), kRule));
     }
     for (std::size_t i = 1; i < id.size(); ++i) {
         if (!IsIdChar(id[i])) {
-            return absl::InvalidArgumentError(absl::StrCat(AbslView(field), " has a bad character ",
-                                                           Quoted(id[i]), " at position ", i,
-                                                           kRule));
+            return absl::InvalidArgumentError(absl::StrCat(AbslView(field),
+                                                           ": has a bad character ", Quoted(id[i]),
+                                                           " at position ", i, kRule));
         }
     }
     return absl::OkStatus();

@@ -42,6 +42,11 @@ class RestClient:
 
     def rest(self, method, path, body=None, raw=None, headers=None, timeout_s=120):
         """(HTTP status, parsed JSON or text) for one request. `raw` sends bytes as they are."""
+        status, payload, _ = self.rest_with_headers(method, path, body, raw, headers, timeout_s)
+        return status, payload
+
+    def rest_with_headers(self, method, path, body=None, raw=None, headers=None, timeout_s=120):
+        """(HTTP status, parsed JSON or text, response headers) for one request."""
         data = raw if raw is not None else (json.dumps(body).encode() if body is not None else None)
         hdrs = {"Content-Type": "application/json"}
         if self.token:
@@ -51,12 +56,12 @@ class RestClient:
         req = urllib.request.Request(self.base_url + path, method=method, data=data, headers=hdrs)
         try:
             with urllib.request.urlopen(req, timeout=timeout_s, context=self.ssl_context) as r:
-                status, text, ctype = r.status, r.read().decode(), r.headers.get("Content-Type", "")
+                status, text, got = r.status, r.read().decode(), r.headers
         except urllib.error.HTTPError as e:
-            status, text, ctype = e.code, e.read().decode(), e.headers.get("Content-Type", "")
-        if "json" in ctype:
-            return status, json.loads(text) if text else None
-        return status, text
+            status, text, got = e.code, e.read().decode(), e.headers
+        if "json" in got.get("Content-Type", ""):
+            return status, json.loads(text) if text else None, got
+        return status, text, got
 
 
 class Server(RestClient):

@@ -1,8 +1,10 @@
 """The gRPC contract, end to end against a real server process, with python3-grpcio and stubs
 generated from proto/soilvol/v1/soilvol.proto. The health service is called with hand-encoded
 messages (stubs for grpc.health.v1 would clash with the python package named grpc)."""
+import math
 import os
 import signal
+import subprocess
 import sys
 import time
 import unittest
@@ -13,6 +15,7 @@ from harness import (TIME_SCALE, Server, load_grpc, needs_own_server, server_met
                      shared_server, wait_until)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
+from google.rpc import error_details_pb2, status_pb2  # noqa: E402  (generated beside the stubs)
 
 # As in test_rest.py: the box is measured to within this share of its struck capacity.
 TOLERANCE_OF_STRUCK = 0.04
@@ -32,6 +35,36 @@ def filled_box(fill, seed=7, step=0.012):
     """A scan of the box with `fill` metres of soil, moved and turned against the empty one."""
     return box_scene.encode_ply(box_scene.box_scan(fill, seed=seed, step=step,
                                                    shift=(0.03, -0.02, 0.01), yaw_deg=2.0))
+
+
+def unpack_details(status):
+    """{type name: message} of a google.rpc.Status's details."""
+    out = {}
+    for any_ in status.details:
+        name = any_.type_url.rsplit(".", 1)[1]
+        message = getattr(error_details_pb2, name)()
+        any_.Unpack(message)
+        out[name] = message
+    return out
+
+
+def rpc_status(err):
+    """The google.rpc.Status of a failed call, from its grpc-status-details-bin trailer."""
+    for key, value in err.trailing_metadata() or ():
+        if key == "grpc-status-details-bin":
+            return status_pb2.Status.FromString(value)
+    raise AssertionError(f"no grpc-status-details-bin in {err.trailing_metadata()}")
+
+
+def yaw_pose(x, y, z, yaw_deg):
+    half = math.radians(yaw_deg) / 2
+    return pb.Pose(position_m=pb.Point3(x=x, y=y, z=z),
+                   orientation=pb.Quaternion(w=math.cos(half), z=math.sin(half)))
+
+
+PARAMS = dict(image_width=640, image_height=480,
+              left=dict(fx=500, fy=500, cx=320, cy=240), right=dict(fx=500, fy=500, cx=320, cy=240),
+              rotation=[1, 0, 0, 0, 1, 0, 0, 0, 1], translation_m=[-0.1, 0, 0])
 
 
 def truth_m3(fill):
@@ -194,6 +227,10 @@ class GrpcFlow(unittest.TestCase):
                 self.assertEqual(answer.WhichOneof("result"), "error", answer)
                 self.assertEqual(answer.error.code, 3)  # INVALID_ARGUMENT
                 self.assertIn("scan.cloud.data", answer.error.message)
+                details = unpack_details(answer.error)
+                self.assertEqual(details["ErrorInfo"].metadata["field"], "scan.cloud.data")
+                self.assertEqual(details["BadRequest"].field_violations[0].field,
+                                 "scan.cloud.data")
             else:
                 self.assertEqual(answer.WhichOneof("result"), "estimate", answer.error)
                 self.assertEqual(answer.estimate.request_id, answer.request_id)
@@ -256,6 +293,149 @@ class GrpcFlow(unittest.TestCase):
         # The duplicate did not replace the original.
         self.assertFalse(stub.GetContainer(pb.GetContainerRequest(container_id="err-box"),
                                            timeout=10).HasField("max_range_m"))
+
+    def test_errors_carry_google_rpc_status_details(self):
+        err = self.assert_code(lambda: self.stub.GetContainer(
+            pb.GetContainerRequest(container_id="../x"), timeout=10), CODE.INVALID_ARGUMENT)
+        status = rpc_status(err)
+        self.assertEqual(status.code, 3)
+        self.assertEqual(status.message, err.details())
+        details = unpack_details(status)
+        self.assertEqual(details["ErrorInfo"].reason, "INVALID_ARGUMENT")
+        self.assertEqual(details["ErrorInfo"].domain, "soilvol")
+        self.assertEqual(details["ErrorInfo"].metadata["field"], "container_id")
+        self.assertEqual(details["BadRequest"].field_violations[0].field, "container_id")
+        self.assertNotIn("RetryInfo", details)
+        err = self.assert_code(lambda: self.stub.GetContainer(
+            pb.GetContainerRequest(container_id="absent"), timeout=10), CODE.NOT_FOUND)
+        self.assertEqual(set(unpack_details(rpc_status(err))), {"ErrorInfo"})
+
+    def test_retried_creates_return_the_first_result(self):
+        first = self.register("", request_id="retry-7f3a")
+        self.assertRegex(first.container_id, r"^ctr-[0-9a-f]{12}$")
+        self.assertEqual(first.create_request_id, "retry-7f3a")
+        again = self.register("", request_id="retry-7f3a")
+        self.assertEqual(again, first)
+        other = self.register("", request_id="retry-other")
+        self.assertNotEqual(other.container_id, first.container_id)
+        # With a client-chosen id, a retry returns the entry instead of ALREADY_EXISTS...
+        named = self.register("retry-named", request_id="retry-n1")
+        self.assertEqual(self.register("retry-named", request_id="retry-n1"), named)
+        # ...and another request for the same id is still a conflict.
+        self.assert_code(lambda: self.register("retry-named", request_id="retry-n2"),
+                         CODE.ALREADY_EXISTS, "retry-named")
+        cal = self.stub.Calibrate(pb.CalibrateRequest(request_id="cal-retry", parameters=PARAMS),
+                                  timeout=30)
+        self.assertEqual(self.stub.Calibrate(pb.CalibrateRequest(
+            request_id="cal-retry", parameters=PARAMS), timeout=30), cal)
+        self.assert_code(lambda: self.register("", request_id="not a valid id"),
+                         CODE.INVALID_ARGUMENT, "request_id")
+
+    def test_etags_guard_overwrite_and_delete(self):
+        first = self.register("etag-box", overwrite=True)
+        self.assertRegex(first.etag, r"^[0-9a-f]{16}$")
+        got = self.stub.GetContainer(pb.GetContainerRequest(container_id="etag-box"), timeout=10)
+        self.assertEqual(got.etag, first.etag)
+        err = self.assert_code(lambda: self.register("etag-box", overwrite=True, etag="0" * 16),
+                               CODE.ABORTED, "etag")
+        self.assertEqual(unpack_details(rpc_status(err))["ErrorInfo"].reason, "ETAG_MISMATCH")
+        second = self.register("etag-box", overwrite=True, etag=first.etag)
+        self.assertNotEqual(second.etag, first.etag)
+        self.assert_code(lambda: self.register("etag-box", etag=second.etag),
+                         CODE.INVALID_ARGUMENT, "etag")
+        self.assert_code(lambda: self.stub.DeleteContainer(pb.DeleteContainerRequest(
+            container_id="etag-box", etag=first.etag), timeout=10), CODE.ABORTED, "etag")
+        self.stub.DeleteContainer(pb.DeleteContainerRequest(container_id="etag-box",
+                                                            etag=second.etag), timeout=10)
+        self.assert_code(lambda: self.stub.GetContainer(
+            pb.GetContainerRequest(container_id="etag-box"), timeout=10), CODE.NOT_FOUND)
+
+    def test_lists_page_in_id_order(self):
+        for i in range(5):
+            self.stub.Calibrate(pb.CalibrateRequest(calibration_id=f"page-{i}", overwrite=True,
+                                                    parameters=PARAMS), timeout=30)
+        seen, token = [], ""
+        while True:
+            page = self.stub.ListCalibrations(
+                pb.ListCalibrationsRequest(page_size=2, page_token=token), timeout=10)
+            self.assertLessEqual(len(page.calibrations), 2)
+            seen += [c.calibration_id for c in page.calibrations]
+            token = page.next_page_token
+            if not token:
+                break
+        self.assertEqual(seen, sorted(set(seen)))
+        self.assertLessEqual({f"page-{i}" for i in range(5)}, set(seen))
+        self.assert_code(lambda: self.stub.ListCalibrations(
+            pb.ListCalibrationsRequest(page_token="forged"), timeout=10),
+            CODE.INVALID_ARGUMENT, "page_token")
+
+    def test_server_info_version_and_request_ids(self):
+        info, call = self.stub.GetServerInfo.with_call(
+            pb.GetServerInfoRequest(), timeout=10, metadata=[("x-request-id", "fleet-17")])
+        self.assertEqual(dict(call.initial_metadata())["x-request-id"], "fleet-17")
+        self.assertEqual(info.api, "soilvol.v1.SoilVolume")
+        self.assertGreater(info.start_time.seconds, 1_600_000_000)
+        version = subprocess.run([os.environ["SOILVOL_SERVER_BIN"], "--version"], check=True,
+                                 capture_output=True, text=True).stdout
+        self.assertIn(f" {info.version} (revision {info.revision}, ", version)
+        _, call = self.stub.GetServerInfo.with_call(pb.GetServerInfoRequest(), timeout=10)
+        self.assertRegex(dict(call.initial_metadata())["x-request-id"], r"^[0-9a-f]{32}$")
+
+    def test_kinematic_pose_starts_the_alignment_and_is_checked(self):
+        container = self.register("kinematic-box", overwrite=True)
+        self.assertAlmostEqual(container.container_pose.orientation.w, 1.0, delta=1e-3)
+        # The bucket has moved far from where it was registered; the machine knows where.
+        shift, yaw = (0.35, -0.25, 0.05), 12.0
+        scan = cloud(box_scene.encode_ply(box_scene.box_scan(0.3, seed=5, shift=shift,
+                                                             yaw_deg=yaw)))
+        est = self.stub.EstimateVolume(pb.EstimateVolumeRequest(
+            container_id="kinematic-box", scan=scan, container_pose=pb.KinematicPose(
+                pose=yaw_pose(*shift, yaw), position_sigma_m=0.05, orientation_sigma_deg=3)),
+            timeout=60)
+        self.assertLess(abs(est.volume_m3 - truth_m3(0.3)),
+                        TOLERANCE_OF_STRUCK * box_scene.STRUCK_M3)
+        self.assertLess(est.pose_difference.distance_m, 0.02)
+        self.assertLess(est.pose_difference.rotation_deg, 1.0)
+        found = est.container_pose.position_m
+        self.assertLess(math.dist((found.x, found.y, found.z), shift), 0.02)
+        self.assertAlmostEqual(est.container_pose.orientation.z, math.sin(math.radians(yaw) / 2),
+                               delta=0.01)
+        # Without a kinematic pose the response still says where the container was found.
+        plain = self.stub.EstimateVolume(pb.EstimateVolumeRequest(
+            container_id="kinematic-box", scan=cloud(filled_box(0.2))), timeout=60)
+        self.assertFalse(plain.HasField("pose_difference"))
+        self.assertAlmostEqual(plain.container_pose.position_m.x, 0.03, delta=0.01)
+        # A pose the scan contradicts beyond its stated accuracy is refused, not averaged.
+        self.assert_code(lambda: self.stub.EstimateVolume(pb.EstimateVolumeRequest(
+            container_id="kinematic-box", scan=scan, container_pose=pb.KinematicPose(
+                pose=yaw_pose(shift[0] + 0.12, shift[1], shift[2], yaw), position_sigma_m=0.01,
+                orientation_sigma_deg=0.5)), timeout=60), CODE.FAILED_PRECONDITION)
+        for bad, field in [
+                (pb.KinematicPose(pose=pb.Pose(orientation=pb.Quaternion(w=2))),
+                 "container_pose.pose.orientation"),
+                (pb.KinematicPose(position_sigma_m=-1), "container_pose.position_sigma_m"),
+                (pb.KinematicPose(orientation_sigma_deg=90), "container_pose.orientation_sigma_deg"),
+                (pb.KinematicPose(pose=pb.Pose(position_m=pb.Point3(x=math.inf))),
+                 "container_pose.pose")]:
+            with self.subTest(field):
+                self.assert_code(lambda: self.stub.EstimateVolume(pb.EstimateVolumeRequest(
+                    container_id="kinematic-box", scan=scan, container_pose=bad), timeout=60),
+                    CODE.INVALID_ARGUMENT, field)
+
+    def test_every_rpc_of_the_service_is_served(self):
+        service = pb.DESCRIPTOR.services_by_name["SoilVolume"]
+        for method in service.methods:
+            if method.client_streaming:
+                continue
+            with self.subTest(method.name):
+                call = self.channel.unary_unary(
+                    f"/{service.full_name}/{method.name}",
+                    request_serializer=lambda m: m.SerializeToString(),
+                    response_deserializer=lambda b: b)
+                try:
+                    call(getattr(pb, method.input_type.name)(), timeout=30)
+                except grpc.RpcError as e:
+                    self.assertNotEqual(e.code(), CODE.UNIMPLEMENTED, method.name)
 
     def test_paper_method_with_small_cells_is_refused_or_right(self):
         # grid_cell_m is accepted down to 5 mm, but most 1 cm cells of this 12 mm scan hold

@@ -124,7 +124,9 @@ class RestFlow(unittest.TestCase):
         self.assertEqual(status, 409)
         self.assertEqual(err["code"], 6)
         self.assertIn("dup-box", err["message"])
-        self.assertEqual(err["details"], [])
+        self.assertEqual(err["details"], [{
+            "@type": "type.googleapis.com/google.rpc.ErrorInfo", "reason": "ALREADY_EXISTS",
+            "domain": "soilvol", "metadata": {"field": "container_id"}}])
         self.assertEqual(self.register("dup-box", overwrite=True)[0], 200)
 
     def test_snake_case_input_and_generated_id(self):
@@ -155,7 +157,8 @@ class RestFlow(unittest.TestCase):
             ("no scan", "POST", "/v1/containers", {"containerId": "h6", "opening": corners}, 400),
             ("path-like id", "POST", "/v1/containers",
              {"containerId": "../../etc/passwd", "scan": cloud_scan(self.empty), "opening": corners}, 400),
-            ("unknown field", "POST", "/v1/containers", {"containerId": "h7", "scan_typo": {}}, 400),
+            ("unknown field ignored, no scan", "POST", "/v1/containers",
+             {"containerId": "h7", "scan_typo": {}}, 400),
             ("wrong type", "POST", "/v1/containers", {"containerId": 12}, 400),
             ("unknown container", "POST", "/v1/containers/nope:estimate",
              {"scan": cloud_scan(self.empty)}, 404),
@@ -188,7 +191,9 @@ class RestFlow(unittest.TestCase):
                                                     "squareSizeM": 0.025}}, 400),
             ("unknown route", "GET", "/v1/nothing", None, 404),
             ("wrong verb", "PUT", "/v1/containers", {}, 405),
-            ("query parameter on list", "GET", "/v1/containers?pageSize=3", None, 400),
+            ("negative page size", "GET", "/v1/containers?pageSize=-3", None, 400),
+            ("foreign page token", "GET", "/v1/containers?page_token=abc", None, 400),
+            ("unknown query parameter", "GET", "/v1/containers?nope=1", None, 400),
         ]
         for name, method, path, body, code in cases:
             with self.subTest(name):
@@ -205,6 +210,66 @@ class RestFlow(unittest.TestCase):
                 self.assertEqual(err["code"], 3)
         self.assertEqual(self.server.rest("GET", "/healthz")[0], 200)
         self.assertTrue(self.server.alive())
+
+    def test_error_bodies_are_google_rpc_status(self):
+        status, err = self.server.rest("POST", "/v1/containers/nope:estimate",
+                                       {"scan": cloud_scan(self.empty), "gridCellM": 0.0})
+        self.assertEqual(status, 404, err)
+        status, err = self.server.rest("GET", "/v1/containers/..")
+        self.assertEqual(status, 400, err)
+        self.assertEqual(err["code"], 3)
+        by_type = {d["@type"].rsplit(".", 1)[1]: d for d in err["details"]}
+        self.assertEqual(by_type["ErrorInfo"]["reason"], "INVALID_ARGUMENT")
+        self.assertEqual(by_type["ErrorInfo"]["domain"], "soilvol")
+        self.assertEqual(by_type["ErrorInfo"]["metadata"], {"field": "container_id"})
+        self.assertEqual(by_type["BadRequest"]["fieldViolations"][0]["field"], "container_id")
+        self.assertTrue(by_type["BadRequest"]["fieldViolations"][0]["description"])
+
+    def test_unknown_json_fields_are_ignored(self):
+        status, container = self.register("future-box", overwrite=True,
+                                          fieldFromANewerClient={"x": 1}, another_new_field=3)
+        self.assertEqual(status, 200, container)
+        self.assertEqual(container["containerId"], "future-box")
+
+    def test_lists_page_with_opaque_tokens(self):
+        for i in range(5):
+            status, body = self.server.rest("POST", "/v1/calibrations", {
+                "calibrationId": f"rest-page-{i}", "overwrite": True, "parameters": {
+                    "imageWidth": 640, "imageHeight": 480,
+                    "left": {"fx": 500, "fy": 500, "cx": 320, "cy": 240},
+                    "right": {"fx": 500, "fy": 500, "cx": 320, "cy": 240},
+                    "rotation": [1, 0, 0, 0, 1, 0, 0, 0, 1], "translationM": [-0.1, 0, 0]}})
+            self.assertEqual(status, 200, body)
+        seen, token, pages = [], "", 0
+        while True:
+            status, page = self.server.rest("GET", f"/v1/calibrations?pageSize=2&pageToken={token}")
+            self.assertEqual(status, 200, page)
+            self.assertLessEqual(len(page["calibrations"]), 2)
+            seen += [c["calibrationId"] for c in page["calibrations"]]
+            pages += 1
+            token = page["nextPageToken"]
+            if not token:
+                break
+        self.assertEqual(seen, sorted(seen))
+        self.assertEqual(len(seen), len(set(seen)))
+        self.assertLessEqual({f"rest-page-{i}" for i in range(5)}, set(seen))
+        self.assertGreaterEqual(pages, 3)
+
+    def test_request_ids_are_echoed_and_info_is_served(self):
+        status, info, headers = self.server.rest_with_headers(
+            "GET", "/v1/info", headers={"X-Request-Id": "dash-42",
+                                        "traceparent": "00-4bf92f3577b34da6a3ce929d0e0e4736-"
+                                                       "00f067aa0ba902b7-01"})
+        self.assertEqual(status, 200, info)
+        self.assertEqual(headers["X-Request-Id"], "dash-42")
+        self.assertRegex(info["version"], r"^\d+\.\d+\.\d+$")
+        self.assertEqual(info["api"], "soilvol.v1.SoilVolume")
+        self.assertIn("opencv", info["libraries"])
+        _, _, headers = self.server.rest_with_headers("GET", "/v1/containers/nope")
+        self.assertRegex(headers["X-Request-Id"], r"^[0-9a-f]{32}$")
+        _, _, headers = self.server.rest_with_headers("GET", "/v1/containers/nope",
+                                                      headers={"X-Request-Id": "bad id\u00e9"})
+        self.assertRegex(headers["X-Request-Id"], r"^[0-9a-f]{32}$")
 
     def test_deadline_header(self):
         self.assertEqual(self.register("deadline-box", overwrite=True)[0], 200)
@@ -259,8 +324,19 @@ class RestFlow(unittest.TestCase):
     @needs_own_server
     def test_cors(self):
         with Server(args=["--workers", "1", "--cors-origin", "https://dash.example"]) as server:
-            status, _ = server.rest("OPTIONS", "/v1/containers", headers={"Origin": "https://dash.example"})
+            status, _, headers = server.rest_with_headers(
+                "OPTIONS", "/v1/containers",
+                headers={"Origin": "https://dash.example", "Access-Control-Request-Method": "GET",
+                         "Access-Control-Request-Headers": "authorization, x-request-id"})
             self.assertEqual(status, 204)
+            allowed = {h.strip().lower() for h in headers["Access-Control-Allow-Headers"].split(",")}
+            self.assertLessEqual({"authorization", "x-request-id", "traceparent"}, allowed)
+            exposed = {h.strip().lower() for h in headers["Access-Control-Expose-Headers"].split(",")}
+            self.assertLessEqual({"retry-after", "x-request-id"}, exposed)
+            status, _, headers = server.rest_with_headers(
+                "GET", "/v1/info", headers={"Origin": "https://dash.example"})
+            self.assertEqual(status, 200)
+            self.assertEqual(headers["Access-Control-Allow-Origin"], "https://dash.example")
             status, _ = server.rest("OPTIONS", "/v1/containers", headers={"Origin": "https://evil.example"})
             self.assertEqual(status, 403)
 

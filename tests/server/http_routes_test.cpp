@@ -31,6 +31,7 @@ TEST(HttpRoutes, AnnotationsGiveTheDocumentedContract) {
         "GET /v1/containers ListContainers",
         "DELETE /v1/containers/{container_id} DeleteContainer",
         "POST /v1/containers/{container_id}:estimate EstimateVolume",
+        "GET /v1/info GetServerInfo",
     };
     EXPECT_EQ(got, expected);
 }

@@ -199,7 +199,8 @@ TEST(EstimatorTest, UncertaintyBudgetRefusesWhatItCannotVouchFor) {
     EstimateConfig config;
     config.max_uncertainty_share = 1e-6;
     const auto refused = EstimateVolume(model, scene.points, config);
-    ASSERT_FALSE(refused.ok());
+    ASSERT_FALSE(refused.ok()) << refused->from_kinematic->distance_m << " m "
+                               << refused->from_kinematic->rotation_deg << " deg";
     EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition);
     EXPECT_NE(refused.status().message().find("uncertain estimate refused: 1-sigma"),
               std::string::npos)
@@ -236,6 +237,30 @@ TEST(EstimatorTest, InitialPoseFromKinematicsIsUsed) {
     const auto estimate = EstimateVolume(model, scene.points, config);
     ASSERT_TRUE(estimate.ok()) << estimate.status();
     EXPECT_NEAR(estimate->volume_m3, scene.true_volume_m3, 0.01 * 0.6642);
+    // The answer says how far the scan put the container from the kinematic guess: the 3 cm
+    // the guess was off, to the alignment's few millimetres.
+    ASSERT_TRUE(estimate->from_kinematic.has_value());
+    EXPECT_NEAR(estimate->from_kinematic->distance_m, 0.03, 0.01);
+    EXPECT_LT(estimate->from_kinematic->rotation_deg, 1.0);
+
+    // Kinematics that claim 2 mm and 0.1 deg but are 3 cm off contradict the scan: refused.
+    config.kinematic_position_sigma_m = 0.002;
+    config.kinematic_orientation_sigma_deg = 0.1;
+    const auto refused = EstimateVolume(model, scene.points, config);
+    ASSERT_FALSE(refused.ok()) << refused->from_kinematic->distance_m << " m "
+                               << refused->from_kinematic->rotation_deg << " deg";
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition) << refused.status();
+}
+
+TEST(EstimatorTest, PoseDifferenceMeasuresTranslationAndTurn) {
+    Pose given = Pose::Identity();
+    Pose found = Pose::Identity();
+    found.translation() = Eigen::Vector3d(0.03, 0.0, -0.04);
+    found.linear() = Eigen::AngleAxisd(5.0 * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const PoseDifference d = DifferenceOf(given, found);
+    EXPECT_NEAR(d.distance_m, 0.05, 1e-12);
+    EXPECT_NEAR(d.rotation_deg, 5.0, 1e-9);
+    EXPECT_NEAR(d.translation_m.z(), -0.04, 1e-12);
 }
 
 }  // namespace

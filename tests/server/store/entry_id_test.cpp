@@ -26,7 +26,7 @@ TEST(EntryIdTest, PlainIdsAreAccepted) {
 TEST(EntryIdTest, EmptyIdIsRejected) {
     const absl::Status status = ValidateId("", "calibration id");
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
-    EXPECT_EQ(status.message(), "calibration id is empty");
+    EXPECT_EQ(status.message(), "calibration id: is empty");
 }
 
 TEST(EntryIdTest, SixtyFiveCharactersAreTooLong) {
@@ -62,7 +62,7 @@ TEST(EntryIdTest, NonPrintableBytesAreEscapedInTheMessage) {
 
 TEST(EntryIdTest, MessageNamesTheField) {
     EXPECT_TRUE(HasSubstr(ValidateId("a b", "calibration_id").message(),
-                          "calibration_id has a bad character"));
+                          "calibration_id: has a bad character"));
 }
 
 }  // namespace

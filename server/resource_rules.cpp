@@ -1,0 +1,105 @@
+#include "server/resource_rules.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <random>
+
+#include "absl/strings/escaping.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "server/status_map.hpp"
+#include "server/store/absl_view.hpp"
+#include "server/store/entry_id.hpp"
+
+namespace soilvol::server {
+namespace {
+
+constexpr std::string_view kTokenPrefix = "after:";
+constexpr std::size_t kMaxRequestId = 128;
+
+std::uint64_t Fnv1a(std::string_view bytes) {
+    std::uint64_t hash = 1469598103934665603ULL;
+    for (const char c : bytes) {
+        hash ^= static_cast<unsigned char>(c);
+        hash *= 1099511628211ULL;
+    }
+    return hash;
+}
+
+std::uint64_t RandomBits() {
+    static thread_local std::mt19937_64 rng(std::random_device{}());
+    return rng();
+}
+
+}  // namespace
+
+absl::StatusOr<Page> PageOf(const std::vector<std::string>& sorted_ids, int page_size,
+                            std::string_view page_token) {
+    if (page_size < 0) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("page_size: must not be negative (got ", page_size, ")"));
+    }
+    const auto size = static_cast<std::size_t>(page_size == 0 ? kDefaultPageSize
+                                                              : std::min(page_size, kMaxPageSize));
+    auto first = sorted_ids.begin();
+    if (!page_token.empty()) {
+        std::string decoded;
+        if (page_token.size() > 256 ||
+            !absl::WebSafeBase64Unescape(AbslView(page_token), &decoded) ||
+            !absl::StartsWith(decoded, AbslView(kTokenPrefix)) ||
+            !ValidateId(decoded.substr(kTokenPrefix.size()), "page_token").ok()) {
+            return absl::InvalidArgumentError(
+                "page_token: is not a next_page_token of this list; start again without one");
+        }
+        first = std::upper_bound(sorted_ids.begin(), sorted_ids.end(),
+                                 decoded.substr(kTokenPrefix.size()));
+    }
+    Page page;
+    const auto last = first + static_cast<std::ptrdiff_t>(std::min(
+                                  size, static_cast<std::size_t>(sorted_ids.end() - first)));
+    page.ids.assign(first, last);
+    if (last != sorted_ids.end() && !page.ids.empty()) {
+        page.next_page_token =
+            absl::WebSafeBase64Escape(absl::StrCat(AbslView(kTokenPrefix), page.ids.back()));
+    }
+    return page;
+}
+
+absl::Status ValidateRequestId(std::string_view request_id, std::string_view field) {
+    if (request_id.size() > kMaxRequestId) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(AbslView(field), ": longer than ", kMaxRequestId, " characters"));
+    }
+    for (const char c : request_id) {
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                        (c >= '0' && c <= '9') || c == '.' || c == '_' || c == ':' || c == '-';
+        if (!ok) {
+            return absl::InvalidArgumentError(absl::StrCat(
+                AbslView(field), ": only letters, digits and . _ : - are allowed (a UUID fits)"));
+        }
+    }
+    return absl::OkStatus();
+}
+
+std::string ServerChosenId(std::string_view prefix, std::string_view request_id) {
+    const std::uint64_t bits =
+        request_id.empty() ? RandomBits()
+                           : Fnv1a(absl::StrCat(AbslView(prefix), "/", AbslView(request_id)));
+    return absl::StrFormat("%s-%012x", AbslView(prefix), bits & 0xffffffffffffULL);
+}
+
+std::string NewEtag() { return absl::StrFormat("%016x", RandomBits()); }
+
+std::string EtagOf(std::string_view payload) { return absl::StrFormat("%016x", Fnv1a(payload)); }
+
+absl::Status CheckEtag(std::string_view expected, std::string_view current, std::string_view what) {
+    if (expected.empty() || expected == current) return absl::OkStatus();
+    return WithReason(
+        absl::AbortedError(absl::StrCat(
+            "etag: '", AbslView(expected), "' is not the current etag of ", AbslView(what), " ('",
+            AbslView(current), "'): it changed since you read it; read it again")),
+        "ETAG_MISMATCH");
+}
+
+}  // namespace soilvol::server

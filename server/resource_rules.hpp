@@ -1,0 +1,47 @@
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/statusor.h"
+
+namespace soilvol::server {
+
+/// The Google AIP rules for soilvol's resources, free of any message type.
+
+/// One page of a sorted id list (AIP-158).
+struct Page {
+    std::vector<std::string> ids;  ///< this page's ids, in order
+    std::string next_page_token;   ///< "" on the last page
+};
+
+inline constexpr int kDefaultPageSize = 100;
+inline constexpr int kMaxPageSize = 1000;
+
+/// The page of `sorted_ids` after `page_token` (opaque: web-safe base64 of the last id
+/// served): `page_size` 0 means kDefaultPageSize, more than kMaxPageSize means kMaxPageSize.
+/// InvalidArgument naming page_size (negative) or page_token (not one this server made).
+/// Entries created or deleted between pages neither repeat nor shift the others.
+absl::StatusOr<Page> PageOf(const std::vector<std::string>& sorted_ids, int page_size,
+                            std::string_view page_token);
+
+/// AIP-155: "" (none) or 1-128 characters of [A-Za-z0-9._:-] (a UUID fits).
+absl::Status ValidateRequestId(std::string_view request_id, std::string_view field);
+
+/// An id the server picks for a create without one: "<prefix>-<12 hex>", random, or derived
+/// from `request_id` when there is one so that a retry lands on the same id.
+std::string ServerChosenId(std::string_view prefix, std::string_view request_id);
+
+/// A fresh etag for a new write (AIP-154): 16 random hex digits.
+std::string NewEtag();
+
+/// The etag of an entry written before etags existed, from its stored bytes.
+std::string EtagOf(std::string_view payload);
+
+/// OK when `expected` is empty or equals `current`; otherwise ABORTED, reason ETAG_MISMATCH,
+/// naming the field "etag".
+absl::Status CheckEtag(std::string_view expected, std::string_view current, std::string_view what);
+
+}  // namespace soilvol::server
