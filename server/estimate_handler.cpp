@@ -43,7 +43,51 @@ absl::StatusOr<pipeline::EstimateRequest> EstimateRequestOf(
     return out;
 }
 
+/// The model lives in the frame of the sensor it was registered from (core's rule).
+absl::Status CheckSameSensor(const v1::Scan& scan, const v1::Container& container) {
+    if (scan.source_case() == v1::Scan::SOURCE_NOT_SET) return absl::OkStatus();  // DecodeScan's
+    return pipeline::CheckSameSensor(
+        container.container_id(), KindOf(container.registered_from()), container.calibration_id(),
+        scan.has_stereo() ? pipeline::ScanKind::kStereo : pipeline::ScanKind::kCloud,
+        scan.stereo().calibration_id());
+}
+
+/// Queue and total time into the response, every stage that ran into the call's record.
+void RecordTimings(CallRecord& record, double handler_ms, v1::Timings* timings) {
+    timings->set_queue_ms(record.queue_ms);
+    timings->set_total_ms(record.queue_ms + handler_ms);
+    for (const auto& [stage, ms] : {std::pair<const char*, double>{"decode", timings->decode_ms()},
+                                    {"rectify", timings->rectify_ms()},
+                                    {"match", timings->match_ms()},
+                                    {"reproject", timings->reproject_ms()},
+                                    {"preprocess", timings->preprocess_ms()},
+                                    {"align", timings->align_ms()},
+                                    {"volume", timings->volume_ms()}}) {
+        if (ms > 0.0) record.stages_ms.push_back({stage, ms});
+    }
+}
+
 }  // namespace
+
+absl::StatusOr<pipeline::VolumeEstimate> SoilVolumeHandlers::RunEstimate(
+    const ContainerEntry& container, const Scan& scan, const pipeline::EstimateConfig& config,
+    v1::Timings* timings, const StopToken& stop) const {
+    if (scan.calibration == nullptr) {
+        timings->set_decode_ms(scan.decode_ms);
+        return pipeline::EstimateVolume(container.model, scan.cloud, config, stop);
+    }
+    pipeline::StereoEstimateConfig stereo_config;
+    stereo_config.estimate = config;
+    // A StatusOr kept whole: GCC 12 misreads the moved-out optional as uninitialized.
+    absl::StatusOr<pipeline::StereoEstimate> stereo = pipeline::EstimateVolumeStereo(
+        container.model, *scan.calibration->stereo, {scan.left, scan.right}, stereo_config, stop);
+    if (!stereo.ok()) return stereo.status();
+    timings->set_decode_ms(stereo->stereo.decode_ms);
+    timings->set_rectify_ms(stereo->stereo.rectify_ms);
+    timings->set_match_ms(stereo->stereo.match_ms);
+    timings->set_reproject_ms(stereo->stereo.reproject_ms);
+    return std::move(stereo->estimate);
+}
 
 absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest& request,
                                                 v1::EstimateVolumeResponse* response,
@@ -56,56 +100,23 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
                              EstimateRequestOf(request, container->info));
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::EstimateConfig config,
                              pipeline::ConfigureEstimate(options, container->model));
-    if (request.scan().source_case() != v1::Scan::SOURCE_NOT_SET) {
-        SOILVOL_RETURN_IF_ERROR(pipeline::CheckSameSensor(
-            container->info.container_id(), KindOf(container->info.registered_from()),
-            container->info.calibration_id(),
-            request.scan().has_stereo() ? pipeline::ScanKind::kStereo : pipeline::ScanKind::kCloud,
-            request.scan().stereo().calibration_id()));
-    }
+    SOILVOL_RETURN_IF_ERROR(CheckSameSensor(request.scan(), container->info));
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan,
                              DecodeScan(request.scan(), container->info.calibration_id(), record));
+    SOILVOL_ASSIGN_OR_RETURN(
+        const pipeline::VolumeEstimate estimate,
+        RunEstimate(*container, scan, config, response->mutable_timings(), record.stop));
 
-    v1::Timings* timings = response->mutable_timings();
-    absl::StatusOr<pipeline::VolumeEstimate> estimate;
-    if (scan.calibration != nullptr) {
-        pipeline::StereoEstimateConfig stereo_config;
-        stereo_config.estimate = config;
-        absl::StatusOr<pipeline::StereoEstimate> stereo =
-            pipeline::EstimateVolumeStereo(container->model, *scan.calibration->stereo,
-                                           {scan.left, scan.right}, stereo_config, record.stop);
-        if (!stereo.ok()) return stereo.status();
-        timings->set_decode_ms(stereo->stereo.decode_ms);
-        timings->set_rectify_ms(stereo->stereo.rectify_ms);
-        timings->set_match_ms(stereo->stereo.match_ms);
-        timings->set_reproject_ms(stereo->stereo.reproject_ms);
-        estimate = std::move(stereo->estimate);
-    } else {
-        timings->set_decode_ms(scan.decode_ms);
-        estimate = pipeline::EstimateVolume(container->model, scan.cloud, config, record.stop);
-    }
-    if (!estimate.ok()) return estimate.status();
-
-    ToProto(*estimate, response);
+    ToProto(estimate, response);
     response->set_container_id(request.container_id());
     response->set_request_id(request.request_id());
     response->set_method(config.method == volume::Method::kPaper ? v1::ESTIMATION_METHOD_PAPER
                                                                  : v1::ESTIMATION_METHOD_HEIGHTMAP);
-    if (request.has_material_density_kg_m3()) {
-        response->set_mass_kg(estimate->volume_m3 * request.material_density_kg_m3());
+    if (options.material_density_kg_m3) {
+        response->set_mass_kg(estimate.volume_m3 * *options.material_density_kg_m3);
     }
-    timings->set_queue_ms(record.queue_ms);
-    timings->set_total_ms(record.queue_ms + timer.Lap());
-    for (const auto& [stage, ms] : {std::pair<const char*, double>{"decode", timings->decode_ms()},
-                                    {"rectify", timings->rectify_ms()},
-                                    {"match", timings->match_ms()},
-                                    {"reproject", timings->reproject_ms()},
-                                    {"preprocess", timings->preprocess_ms()},
-                                    {"align", timings->align_ms()},
-                                    {"volume", timings->volume_ms()}}) {
-        if (ms > 0.0) record.stages_ms.push_back({stage, ms});
-    }
-    record.volume_m3 = estimate->volume_m3;
+    RecordTimings(record, timer.Lap(), response->mutable_timings());
+    record.volume_m3 = estimate.volume_m3;
     return absl::OkStatus();
 }
 

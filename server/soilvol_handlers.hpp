@@ -8,6 +8,7 @@
 #include "absl/status/statusor.h"
 #include "core/common/types.hpp"
 #include "core/model/container_model.hpp"
+#include "core/pipeline/estimator.hpp"
 #include "core/pipeline/registration.hpp"
 #include "core/stereo/reconstructor.hpp"
 #include "server/dispatcher.hpp"
@@ -77,6 +78,12 @@ class SoilVolumeHandlers {
     /// `calibration_id` stands in for an empty scan.stereo.calibration_id.
     absl::StatusOr<Scan> DecodeScan(const v1::Scan& scan, const std::string& calibration_id,
                                     CallRecord& record) const;
+    /// The estimate of a decoded scan (cloud or stereo), with the decode and stereo timings.
+    absl::StatusOr<pipeline::VolumeEstimate> RunEstimate(const ContainerEntry& container,
+                                                         const Scan& scan,
+                                                         const pipeline::EstimateConfig& config,
+                                                         v1::Timings* timings,
+                                                         const StopToken& stop) const;
     /// `first` and the request's additional_scans, decoded (at most max_scans in all).
     absl::StatusOr<std::vector<pipeline::EmptyScan>> DecodeEmptyScans(
         const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,

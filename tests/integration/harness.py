@@ -116,11 +116,11 @@ class Server(RestClient):
     def base_url(self):
         return f"{'https' if self.tls_ca else 'http'}://127.0.0.1:{self.http_port}"
 
-    def channel(self, grpc, token=None):
+    def channel(self, grpc, token=None, options=None):
         """A gRPC channel to this server: TLS when it runs TLS, `token` (default: the server's)
-        on every call."""
+        on every call, gRPC channel `options`."""
         return make_channel(grpc, self.grpc_target, self.tls_ca,
-                            token if token is not None else self.token)
+                            token if token is not None else self.token, options)
 
     def stop(self, sig=signal.SIGTERM, timeout_s=30):
         """Stops the process; returns its exit code."""
@@ -195,14 +195,15 @@ class ExternalServer(RestClient):
         return 0
 
 
-def make_channel(grpc, target, tls_ca=None, token=None):
+def make_channel(grpc, target, tls_ca=None, token=None, options=None):
     """A channel to `target`: TLS trusting `tls_ca` when given, `token` as a bearer token on
-    every call (an interceptor, so that it also works without TLS)."""
+    every call (an interceptor, so that it also works without TLS), gRPC channel `options`."""
     if tls_ca:
         with open(tls_ca, "rb") as f:
-            channel = grpc.secure_channel(target, grpc.ssl_channel_credentials(f.read()))
+            channel = grpc.secure_channel(target, grpc.ssl_channel_credentials(f.read()),
+                                          options=options)
     else:
-        channel = grpc.insecure_channel(target)
+        channel = grpc.insecure_channel(target, options=options)
     if not token:
         return channel
     return grpc.intercept_channel(channel, BearerInterceptor(grpc, token))

@@ -437,6 +437,32 @@ class GrpcFlow(unittest.TestCase):
                 except grpc.RpcError as e:
                     self.assertNotEqual(e.code(), CODE.UNIMPLEMENTED, method.name)
 
+    def test_long_stream_survives_client_keepalive_pings_every_10_s(self):
+        # gRPC's default server policy answers pings more often than every 5 min with GOAWAY
+        # too_many_pings, which kills a long stream; soilvol permits one every 10 s, also
+        # without calls. Three pings pass while the stream waits.
+        self.register("keepalive-box", overwrite=True)
+        channel = self.server.channel(grpc, options=[
+            ("grpc.keepalive_time_ms", 10000), ("grpc.keepalive_timeout_ms", 5000),
+            ("grpc.keepalive_permit_without_calls", 1), ("grpc.http2.max_pings_without_data", 0)])
+        stub = pb_grpc.SoilVolumeStub(channel)
+        sent = []
+
+        def scans():
+            for i in range(2):
+                if i:
+                    time.sleep(35)  # pings at 10, 20 and 30 s with the stream open
+                sent.append(i)
+                yield pb.EstimateVolumeRequest(container_id="keepalive-box",
+                                               scan=cloud(filled_box(0.2, seed=40 + i)),
+                                               request_id=f"keepalive-{i}")
+        try:
+            answers = list(stub.StreamEstimates(scans(), timeout=120))
+        finally:
+            channel.close()
+        self.assertEqual([a.request_id for a in answers], ["keepalive-0", "keepalive-1"])
+        self.assertTrue(all(a.WhichOneof("result") == "estimate" for a in answers), answers)
+
     def test_paper_method_with_small_cells_is_refused_or_right(self):
         # grid_cell_m is accepted down to 5 mm, but most 1 cm cells of this 12 mm scan hold
         # fewer than 3 points and take the averaged planes of far cells, extrapolated: the paper
