@@ -110,32 +110,32 @@ CallContext GrpcCallContext(grpc::CallbackServerContext* context, const char* me
     return call;
 }
 
-SoilVolumeService::SoilVolumeService(SoilVolumeHandlers& handlers, Dispatcher& dispatcher)
-    : handlers_(handlers), dispatcher_(dispatcher) {}
+SoilVolumeService::SoilVolumeService(const std::map<std::string, Rpc>& rpcs,
+                                     SoilVolumeHandlers& handlers, Dispatcher& dispatcher)
+    : rpcs_(rpcs), handlers_(handlers), dispatcher_(dispatcher) {}
 
-template <typename Request, typename Response,
-          SoilVolumeService::Handler<Request, Response> handler>
 grpc::ServerUnaryReactor* SoilVolumeService::Unary(grpc::CallbackServerContext* context,
-                                                   const char* method, const Request* request,
-                                                   Response* response) {
+                                                   const char* method,
+                                                   const google::protobuf::Message* request,
+                                                   google::protobuf::Message* response) {
     grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
     CallContext call = GrpcCallContext(context, method);
     context->AddInitialMetadata("x-request-id", call.request_id);
+    const Rpc* rpc = &rpcs_.at(method);  // CheckRpcTable made sure at start
     dispatcher_.Submit(
         std::move(call),
-        [this, request, response](CallRecord& record) {
-            return (handlers_.*handler)(*request, response, record);
+        [rpc, request, response](CallRecord& record) {
+            return rpc->call(*request, response, record);
         },
         [reactor](const absl::Status& status) { reactor->Finish(ToGrpcStatus(status)); });
     return reactor;
 }
 
-#define SOILVOL_UNARY_RPC(Name, Request, Response)                                             \
-    grpc::ServerUnaryReactor* SoilVolumeService::Name(grpc::CallbackServerContext* context,    \
-                                                      const v1::Request* request,              \
-                                                      v1::Response* response) {                \
-        return Unary<v1::Request, v1::Response, &SoilVolumeHandlers::Name>(context, #Name,     \
-                                                                           request, response); \
+#define SOILVOL_UNARY_RPC(Name, Request, Response)                                          \
+    grpc::ServerUnaryReactor* SoilVolumeService::Name(grpc::CallbackServerContext* context, \
+                                                      const v1::Request* request,           \
+                                                      v1::Response* response) {             \
+        return Unary(context, #Name, request, response);                                    \
     }
 
 SOILVOL_UNARY_RPC(Calibrate, CalibrateRequest, Calibration)

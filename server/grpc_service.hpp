@@ -1,6 +1,10 @@
 #pragma once
 
+#include <map>
+#include <string>
+
 #include "server/dispatcher.hpp"
+#include "server/rpc_table.hpp"
 #include "server/soilvol_handlers.hpp"
 #include "soilvol/v1/soilvol.grpc.pb.h"
 
@@ -10,7 +14,10 @@ namespace soilvol::server {
 /// bounded worker pool), never blocks a gRPC thread, and finishes with the mapped status.
 class SoilVolumeService final : public v1::SoilVolume::CallbackService {
   public:
-    SoilVolumeService(SoilVolumeHandlers& handlers, Dispatcher& dispatcher);
+    /// `rpcs` (MakeRpcTable, checked by CheckRpcTable) serves every unary RPC, as it does for
+    /// REST; `handlers` the stream.
+    SoilVolumeService(const std::map<std::string, Rpc>& rpcs, SoilVolumeHandlers& handlers,
+                      Dispatcher& dispatcher);
 
     grpc::ServerUnaryReactor* Calibrate(grpc::CallbackServerContext* context,
                                         const v1::CalibrateRequest* request,
@@ -46,17 +53,11 @@ class SoilVolumeService final : public v1::SoilVolume::CallbackService {
     StreamEstimates(grpc::CallbackServerContext* context) override;
 
   private:
-    template <typename Request, typename Response>
-    using Handler = absl::Status (SoilVolumeHandlers::*)(const Request&, Response*, CallRecord&);
-
-    /// The handler is a template argument, not a value the closure captures: GCC 12 with
-    /// -fsanitize=address,undefined miscompiles a call through a captured member-function
-    /// pointer in a std::function (it warns "may be used uninitialized" there, then the call
-    /// jumps through a wild this-adjustment).
-    template <typename Request, typename Response, Handler<Request, Response> handler>
     grpc::ServerUnaryReactor* Unary(grpc::CallbackServerContext* context, const char* method,
-                                    const Request* request, Response* response);
+                                    const google::protobuf::Message* request,
+                                    google::protobuf::Message* response);
 
+    const std::map<std::string, Rpc>& rpcs_;
     SoilVolumeHandlers& handlers_;
     Dispatcher& dispatcher_;
 };

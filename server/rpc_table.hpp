@@ -13,7 +13,7 @@
 
 namespace soilvol::server {
 
-/// One RPC with its messages erased, for the REST gateway.
+/// One RPC with its messages erased: what both transports call.
 struct Rpc {
     std::function<std::unique_ptr<google::protobuf::Message>()> new_request;
     std::function<std::unique_ptr<google::protobuf::Message>()> new_response;

@@ -35,6 +35,7 @@ struct Server::Parts {
     std::unique_ptr<WorkerPool> pool;
     std::unique_ptr<Dispatcher> dispatcher;
     std::unique_ptr<SoilVolumeHandlers> handlers;
+    std::map<std::string, Rpc> rpcs;  // what both transports serve
     std::unique_ptr<SoilVolumeService> service;
     std::unique_ptr<HealthService> health;
     std::unique_ptr<HttpGateway> gateway;
@@ -159,7 +160,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     p.metrics.SetWorkers(o.workers, o.max_queue);
     p.dispatcher = std::make_unique<Dispatcher>(*p.pool, p.metrics, *p.authenticator);
     p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store);
-    p.service = std::make_unique<SoilVolumeService>(*p.handlers, *p.dispatcher);
+    p.rpcs = MakeRpcTable(*p.handlers);
     SoilVolumeHandlers* handlers = p.handlers.get();
     p.health = std::make_unique<HealthService>([handlers] { return handlers->CheckReady().ok(); });
 
@@ -169,8 +170,8 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     if (api == nullptr) return absl::InternalError("soilvol.v1.SoilVolume is not linked in");
     absl::StatusOr<std::vector<HttpRoute>> routes = RoutesFromAnnotations(*api);
     if (!routes.ok()) return routes.status();
-    std::map<std::string, Rpc> rpcs = MakeRpcTable(*p.handlers);
-    SOILVOL_RETURN_IF_ERROR(CheckRpcTable(rpcs, *api));
+    SOILVOL_RETURN_IF_ERROR(CheckRpcTable(p.rpcs, *api));
+    p.service = std::make_unique<SoilVolumeService>(p.rpcs, *p.handlers, *p.dispatcher);
     HttpGatewayOptions http;
     http.server.address = o.http_address;
     http.server.io_threads = o.http_threads;
@@ -191,7 +192,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     http.probe_address = o.probe_address;
     HealthService* health = p.health.get();
     p.gateway = std::make_unique<HttpGateway>(
-        http, std::move(rpcs), *std::move(routes), *p.dispatcher, p.metrics, [health] {
+        http, p.rpcs, *std::move(routes), *p.dispatcher, p.metrics, [health] {
             return health->StatusOf("") == grpc::health::v1::HealthCheckResponse::SERVING;
         });
 

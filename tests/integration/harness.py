@@ -172,9 +172,9 @@ class ExternalServer(RestClient):
             import ssl
             self.ssl_context = ssl.create_default_context(cafile=EXTERNAL_CA)
 
-    def channel(self, grpc, token=None):
+    def channel(self, grpc, token=None, options=None):
         return make_channel(grpc, self.grpc_target, self.tls_ca,
-                            token if token is not None else self.token)
+                            token if token is not None else self.token, options)
 
     def start(self, timeout_s=60):
         """Waits until the server reports ready on /readyz."""
