@@ -10,6 +10,22 @@ namespace {
 
 enum class Action { kList, kGet, kDelete };
 
+/// Every page of a List RPC (AIP-158), merged into `all`; each page is its own call.
+template <typename Request, typename Response, typename Call>
+grpc::Status ListAll(Connection& connection, Call call, Response* all) {
+    Request request;
+    request.set_page_size(1000);
+    do {
+        Response page;
+        const auto context = connection.NewContext();
+        if (grpc::Status status = call(context.get(), request, &page); !status.ok()) return status;
+        request.set_page_token(page.next_page_token());
+        page.clear_next_page_token();
+        all->MergeFrom(page);
+    } while (!request.page_token().empty());
+    return grpc::Status::OK;
+}
+
 int RunContainers(Action action, const std::string& id, const GlobalOptions& global) {
     Connection connection(global);
     if (!connection.ok()) return kExitUsage;
@@ -17,7 +33,13 @@ int RunContainers(Action action, const std::string& id, const GlobalOptions& glo
     grpc::Status status;
     if (action == Action::kList) {
         v1::ListContainersResponse list;
-        status = connection.Soil().ListContainers(context.get(), {}, &list);
+        status = ListAll<v1::ListContainersRequest>(
+            connection,
+            [&connection](grpc::ClientContext* c, const v1::ListContainersRequest& request,
+                          v1::ListContainersResponse* page) {
+                return connection.Soil().ListContainers(c, request, page);
+            },
+            &list);
         if (status.ok()) PrintContainerList(list, global.json, std::cout);
     } else if (action == Action::kGet) {
         v1::GetContainerRequest request;
@@ -43,7 +65,13 @@ int RunCalibrations(Action action, const std::string& id, const GlobalOptions& g
     grpc::Status status;
     if (action == Action::kList) {
         v1::ListCalibrationsResponse list;
-        status = connection.Soil().ListCalibrations(context.get(), {}, &list);
+        status = ListAll<v1::ListCalibrationsRequest>(
+            connection,
+            [&connection](grpc::ClientContext* c, const v1::ListCalibrationsRequest& request,
+                          v1::ListCalibrationsResponse* page) {
+                return connection.Soil().ListCalibrations(c, request, page);
+            },
+            &list);
         if (status.ok()) PrintCalibrationList(list, global.json, std::cout);
     } else if (action == Action::kGet) {
         v1::GetCalibrationRequest request;

@@ -41,6 +41,14 @@ void PrintUnreadable(const google::protobuf::RepeatedPtrField<v1::UnreadableEntr
 
 std::string Percent(double ratio) { return Fixed(100.0 * ratio, 1); }
 
+/// "at (x, y, z) m, quaternion (w, x, y, z)".
+std::string PoseText(const v1::Pose& pose) {
+    const v1::Point3& p = pose.position_m();
+    const v1::Quaternion& q = pose.orientation();
+    return absl::StrFormat("at (%.3f, %.3f, %.3f) m, quaternion (%.4f, %.4f, %.4f, %.4f)", p.x(),
+                           p.y(), p.z(), q.w(), q.x(), q.y(), q.z());
+}
+
 }  // namespace
 
 std::string EnumLabel(const std::string& name, const std::string& prefix) {
@@ -138,7 +146,13 @@ void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream&
                                    cells.cell_m(), cells.total(), cells.measured(),
                                    cells.interpolated(), cells.with_soil())},
          {"points", absl::StrFormat("%d in scan, %d used", e.scan_points(), e.used_points())},
-         {"timings [ms]", timings}});
+         {"container pose", PoseText(e.container_pose())}});
+    if (e.has_pose_difference()) {
+        const v1::PoseDifference& d = e.pose_difference();
+        fields.push_back({"from the given pose",
+                          absl::StrFormat("%.3f m, %.2f deg", d.distance_m(), d.rotation_deg())});
+    }
+    fields.push_back({"timings [ms]", timings});
     PrintFields(fields, out);
 }
 
