@@ -9,12 +9,12 @@
 #include "absl/strings/str_join.h"
 #include "google/protobuf/util/json_util.h"
 #include "server/call_ids.hpp"
+#include "server/multipart.hpp"
 #include "server/status_map.hpp"
 
 namespace soilvol::server {
 namespace {
 
-constexpr const char* kJson = "application/json";
 constexpr const char* kAllowHeaders =
     "Authorization, Content-Type, Grpc-Timeout, X-Request-Id, traceparent";
 constexpr const char* kExposeHeaders = "Retry-After, X-Request-Id, WWW-Authenticate";
@@ -32,8 +32,9 @@ struct RestCall {
 // JSON. Runs on a worker.
 absl::Status BindAndCall(RestCall& call, CallRecord& record) {
     std::unique_ptr<google::protobuf::Message> message = call.rpc->new_request();
-    if (absl::Status bound = BindRequest(*call.route, call.path_fields, call.request.query,
-                                         call.request.body, message.get());
+    if (absl::Status bound =
+            BindRequest(*call.route, call.path_fields, call.request.query,
+                        call.request.headers.Get("Content-Type"), call.request.body, message.get());
         !bound.ok()) {
         return bound;
     }
@@ -55,6 +56,21 @@ HttpResponse JsonResponse(int status, std::string body) {
     response.status = status;
     response.body = std::move(body);
     return response;
+}
+
+/// JSON everywhere; a binary or multipart body where the route takes the whole request.
+bool BodyAccepted(const HttpRoute& route, const std::string& content_type) {
+    switch (BodyKindOf(content_type)) {
+        case BodyKind::kJson:
+            return true;
+        case BodyKind::kBinary:
+            return route.body == "*";
+        case BodyKind::kMultipart:
+            return route.body == "*" && MultipartBoundary(content_type).ok();
+        case BodyKind::kOther:
+            return false;
+    }
+    return false;
 }
 
 bool HasBody(const HttpRequest& head) {
@@ -239,10 +255,14 @@ std::optional<HttpResponse> HttpGateway::Admit(const HttpRequest& head) const {
         return ErrorResponse(match.status(), origin,
                              absl::IsUnimplemented(match.status()) ? 405 : 0);
     }
-    if (HasBody(head) && !absl::StartsWith(head.headers.Get("Content-Type"), kJson)) {
-        return ErrorResponse(
-            absl::InvalidArgumentError("Content-Type: request bodies must be application/json"),
-            origin, 415);
+    if (HasBody(head) && !BodyAccepted(*match->route, head.headers.Get("Content-Type"))) {
+        return ErrorResponse(absl::InvalidArgumentError(
+                                 match->route->body == "*"
+                                     ? "Content-Type: send application/json, "
+                                       "application/octet-stream (a cloud file) or "
+                                       "multipart/form-data (with a boundary)"
+                                     : "Content-Type: request bodies must be application/json"),
+                             origin, 415);
     }
     const std::string& encoding = head.headers.Get("Content-Encoding");
     if (!encoding.empty() && !absl::EqualsIgnoreCase(encoding, "identity")) {

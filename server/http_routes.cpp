@@ -1,10 +1,16 @@
 #include "server/http_routes.hpp"
 
+#include <set>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "core/common/status_macros.hpp"
 #include "google/api/annotations.pb.h"
 #include "google/protobuf/util/json_util.h"
+#include "server/multipart.hpp"
 #include "server/store/absl_view.hpp"
 
 namespace soilvol::server {
@@ -74,54 +80,195 @@ absl::StatusOr<std::string> PercentDecode(std::string_view text, bool plus_is_sp
     return out;
 }
 
-/// Sets a scalar field of `message` from a path or query value.
+const google::protobuf::FieldDescriptor* FindField(const google::protobuf::Descriptor& type,
+                                                   const std::string& name) {
+    const google::protobuf::FieldDescriptor* field = type.FindFieldByName(name);
+    return field != nullptr ? field : type.FindFieldByCamelcaseName(name);
+}
+
+absl::Status ParseJsonInto(std::string_view json, google::protobuf::Message* message,
+                           const std::string& what) {
+    google::protobuf::util::JsonParseOptions options;
+    options.ignore_unknown_fields = true;  // as grpc-gateway: newer clients, older servers
+    const auto parsed = google::protobuf::util::JsonStringToMessage(
+        google::protobuf::StringPiece(json.data(), json.size()), message, options);
+    if (!parsed.ok()) {
+        return absl::InvalidArgumentError(absl::StrCat(what, ": ", std::string(parsed.message())));
+    }
+    return absl::OkStatus();
+}
+
+/// Sets the field a path value or query parameter names (grpc-gateway's rules: a dotted path
+/// of singular message fields to a scalar or enum, repeated scalars appended), or - where a
+/// query cannot express it - a message field from its proto3 JSON.
 absl::Status SetField(google::protobuf::Message* message, const std::string& name,
                       const std::string& value) {
-    const google::protobuf::Descriptor* descriptor = message->GetDescriptor();
-    const google::protobuf::FieldDescriptor* field = descriptor->FindFieldByName(name);
-    if (field == nullptr) field = descriptor->FindFieldByCamelcaseName(name);
-    if (field == nullptr || field->is_repeated() ||
-        field->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) {
-        return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
+    using F = google::protobuf::FieldDescriptor;
+    const F* field = nullptr;
+    std::string path;
+    for (absl::string_view step : absl::StrSplit(AbslView(name), '.')) {
+        if (field != nullptr) {
+            if (field->is_repeated() || field->cpp_type() != F::CPPTYPE_MESSAGE) {
+                return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
+            }
+            message = message->GetReflection()->MutableMessage(message, field);
+        }
+        field = FindField(*message->GetDescriptor(), std::string(step));
+        if (field == nullptr) {
+            return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
+        }
+        absl::StrAppend(&path, path.empty() ? "" : ".", field->name());
     }
     const google::protobuf::Reflection* reflection = message->GetReflection();
-    using F = google::protobuf::FieldDescriptor;
+    if (field->cpp_type() == F::CPPTYPE_MESSAGE) {
+        google::protobuf::Message* target = field->is_repeated()
+                                                ? reflection->AddMessage(message, field)
+                                                : reflection->MutableMessage(message, field);
+        return ParseJsonInto(value, target, path);
+    }
+    const bool repeated = field->is_repeated();
     bool ok = true;
     switch (field->cpp_type()) {
         case F::CPPTYPE_STRING: {
-            if (reflection->HasField(*message, field) &&
-                reflection->GetString(*message, field) != value) {
-                return absl::InvalidArgumentError(absl::StrCat(
-                    field->name(), ": the body says '", reflection->GetString(*message, field),
-                    "' but the path says '", value, "'"));
+            if (field->type() == F::TYPE_BYTES) {
+                return absl::InvalidArgumentError(
+                    absl::StrCat(path, ": bytes cannot be set from the URL"));
             }
-            reflection->SetString(message, field, value);
+            if (!repeated && reflection->HasField(*message, field) &&
+                reflection->GetString(*message, field) != value) {
+                return absl::InvalidArgumentError(
+                    absl::StrCat(path, ": the body says '", reflection->GetString(*message, field),
+                                 "' but the URL says '", value, "'"));
+            }
+            repeated ? reflection->AddString(message, field, value)
+                     : reflection->SetString(message, field, value);
             break;
         }
         case F::CPPTYPE_BOOL: {
             ok = value == "true" || value == "false";
-            if (ok) reflection->SetBool(message, field, value == "true");
+            if (ok && repeated) reflection->AddBool(message, field, value == "true");
+            if (ok && !repeated) reflection->SetBool(message, field, value == "true");
             break;
         }
-        case F::CPPTYPE_DOUBLE: {
+        case F::CPPTYPE_DOUBLE:
+        case F::CPPTYPE_FLOAT: {
             double number = 0.0;
             ok = absl::SimpleAtod(value, &number);
-            if (ok) reflection->SetDouble(message, field, number);
+            if (!ok) break;
+            if (field->cpp_type() == F::CPPTYPE_FLOAT) {
+                const auto narrow = static_cast<float>(number);
+                repeated ? reflection->AddFloat(message, field, narrow)
+                         : reflection->SetFloat(message, field, narrow);
+            } else {
+                repeated ? reflection->AddDouble(message, field, number)
+                         : reflection->SetDouble(message, field, number);
+            }
             break;
         }
         case F::CPPTYPE_INT32: {
             int number = 0;
             ok = absl::SimpleAtoi(value, &number);
-            if (ok) reflection->SetInt32(message, field, number);
+            if (ok && repeated) reflection->AddInt32(message, field, number);
+            if (ok && !repeated) reflection->SetInt32(message, field, number);
+            break;
+        }
+        case F::CPPTYPE_INT64: {
+            long long number = 0;
+            ok = absl::SimpleAtoi(value, &number);
+            if (ok && repeated) reflection->AddInt64(message, field, number);
+            if (ok && !repeated) reflection->SetInt64(message, field, number);
+            break;
+        }
+        case F::CPPTYPE_ENUM: {
+            const google::protobuf::EnumValueDescriptor* named =
+                field->enum_type()->FindValueByName(value);
+            int number = 0;
+            if (named == nullptr && absl::SimpleAtoi(value, &number)) {
+                named = field->enum_type()->FindValueByNumber(number);
+            }
+            ok = named != nullptr;
+            if (ok && repeated) reflection->AddEnum(message, field, named);
+            if (ok && !repeated) reflection->SetEnum(message, field, named);
             break;
         }
         default:
-            return absl::InvalidArgumentError(
-                absl::StrCat("parameter '", name, "' cannot be set from the URL"));
+            return absl::InvalidArgumentError(absl::StrCat(path, ": cannot be set from the URL"));
     }
     if (!ok) {
         return absl::InvalidArgumentError(
-            absl::StrCat(field->name(), ": '", value, "' is not a valid value"));
+            absl::StrCat(path, ": '", value, "' is not a valid value"));
+    }
+    return absl::OkStatus();
+}
+
+/// The scan of a request that carries one (RegisterContainer, EstimateVolume); null otherwise.
+google::protobuf::Message* ScanOf(google::protobuf::Message* message) {
+    const google::protobuf::FieldDescriptor* field =
+        message->GetDescriptor()->FindFieldByName("scan");
+    if (field == nullptr ||
+        field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) {
+        return nullptr;
+    }
+    return message->GetReflection()->MutableMessage(message, field);
+}
+
+/// `scan.<source>.<name>` of a Scan message: the bytes field a file fills.
+absl::Status SetScanBytes(google::protobuf::Message* scan, const char* source, const char* name,
+                          std::string bytes) {
+    const google::protobuf::FieldDescriptor* source_field =
+        scan->GetDescriptor()->FindFieldByName(source);
+    google::protobuf::Message* inner = scan->GetReflection()->MutableMessage(scan, source_field);
+    const google::protobuf::FieldDescriptor* field = inner->GetDescriptor()->FindFieldByName(name);
+    if (!inner->GetReflection()->GetString(*inner, field).empty()) {
+        return absl::InvalidArgumentError(absl::StrCat("scan.", source, ".", name,
+                                                       ": given twice (in the request and as a "
+                                                       "file)"));
+    }
+    inner->GetReflection()->SetString(inner, field, std::move(bytes));
+    return absl::OkStatus();
+}
+
+/// multipart/form-data: a `request` part (the request as JSON), files `cloud`, `left` and
+/// `right` for the scan, any other part naming a field as a query parameter would.
+absl::Status BindMultipart(std::string_view content_type, const std::string& body,
+                           google::protobuf::Message* message) {
+    absl::StatusOr<std::string> boundary = MultipartBoundary(content_type);
+    if (!boundary.ok()) return boundary.status();
+    absl::StatusOr<std::vector<MultipartPart>> parts = ParseMultipart(body, *boundary);
+    if (!parts.ok()) return parts.status();
+    std::set<std::string_view> seen;
+    for (const MultipartPart& part : *parts) {
+        if (!seen.insert(part.name).second) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("multipart body: part '", AbslView(part.name), "' is given twice"));
+        }
+    }
+    for (const MultipartPart& part : *parts) {  // the request first, wherever it is
+        if (part.name == "request") {
+            SOILVOL_RETURN_IF_ERROR(
+                ParseJsonInto(part.data, message, "multipart body: part 'request'"));
+        }
+    }
+    google::protobuf::Message* scan = nullptr;
+    for (const MultipartPart& part : *parts) {
+        if (part.name == "request") continue;
+        const bool file = part.name == "cloud" || part.name == "left" || part.name == "right";
+        if (!file) {
+            SOILVOL_RETURN_IF_ERROR(
+                SetField(message, std::string(part.name), std::string(part.data)));
+            continue;
+        }
+        if (scan == nullptr) scan = ScanOf(message);
+        if (scan == nullptr) {
+            return absl::InvalidArgumentError(absl::StrCat(
+                "multipart body: part '", AbslView(part.name), "': this route takes no scan"));
+        }
+        if (part.name == "cloud") {
+            SOILVOL_RETURN_IF_ERROR(SetScanBytes(scan, "cloud", "data", std::string(part.data)));
+        } else {
+            SOILVOL_RETURN_IF_ERROR(SetScanBytes(scan, "stereo", std::string(part.name).c_str(),
+                                                 std::string(part.data)));
+        }
     }
     return absl::OkStatus();
 }
@@ -202,17 +349,42 @@ absl::StatusOr<std::vector<std::pair<std::string, std::string>>> ParseQuery(
     return pairs;
 }
 
+BodyKind BodyKindOf(std::string_view content_type) {
+    const absl::string_view type =
+        absl::StripAsciiWhitespace(AbslView(content_type.substr(0, content_type.find(';'))));
+    if (absl::EqualsIgnoreCase(type, "application/json")) return BodyKind::kJson;
+    if (absl::EqualsIgnoreCase(type, "application/octet-stream")) return BodyKind::kBinary;
+    if (absl::EqualsIgnoreCase(type, "multipart/form-data")) return BodyKind::kMultipart;
+    return BodyKind::kOther;
+}
+
 absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std::string>& path,
-                         std::string_view query, const std::string& body,
+                         std::string_view query, std::string_view content_type, std::string& body,
                          google::protobuf::Message* message) {
-    if (route.body == "*" && !body.empty()) {
-        google::protobuf::util::JsonParseOptions options;
-        options.ignore_unknown_fields = true;  // as grpc-gateway: newer clients, older servers
-        const auto parsed = google::protobuf::util::JsonStringToMessage(body, message, options);
-        if (!parsed.ok()) {
-            return absl::InvalidArgumentError(
-                absl::StrCat("request body: ", std::string(parsed.message())));
+    const BodyKind kind = route.body == "*" ? BodyKindOf(content_type) : BodyKind::kJson;
+    switch (kind) {
+        case BodyKind::kJson:
+            if (route.body == "*" && !body.empty()) {
+                SOILVOL_RETURN_IF_ERROR(ParseJsonInto(body, message, "request body"));
+            }
+            break;
+        case BodyKind::kBinary: {
+            google::protobuf::Message* scan = ScanOf(message);
+            if (scan == nullptr) {
+                return absl::InvalidArgumentError(
+                    "Content-Type: application/octet-stream is for routes that take a scan");
+            }
+            // The file's bytes move into the message: no copy of a large scan.
+            SOILVOL_RETURN_IF_ERROR(SetScanBytes(scan, "cloud", "data", std::move(body)));
+            break;
         }
+        case BodyKind::kMultipart:
+            SOILVOL_RETURN_IF_ERROR(BindMultipart(content_type, body, message));
+            break;
+        case BodyKind::kOther:
+            return absl::InvalidArgumentError(
+                "Content-Type: send application/json, application/octet-stream or "
+                "multipart/form-data");
     }
     for (const auto& [field, value] : path) {
         if (absl::Status status = SetField(message, field, value); !status.ok()) return status;
@@ -220,7 +392,8 @@ absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std
     absl::StatusOr<std::vector<std::pair<std::string, std::string>>> parameters = ParseQuery(query);
     if (!parameters.ok()) return parameters.status();
     for (const auto& [name, value] : *parameters) {
-        if (route.body == "*") {
+        // A JSON body carries every field itself, as grpc-gateway has it for body "*".
+        if (route.body == "*" && kind == BodyKind::kJson) {
             return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
         }
         if (absl::Status status = SetField(message, name, value); !status.ok()) return status;

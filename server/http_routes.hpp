@@ -41,12 +41,23 @@ absl::StatusOr<std::vector<HttpRoute>> RoutesFromAnnotations(
 absl::StatusOr<RouteMatch> MatchRoute(const std::vector<HttpRoute>& routes, const std::string& verb,
                                       const std::string& path);
 
-/// Fills `message` (the route's request message) as grpc-gateway does: the body as proto3 JSON
+/// How a request body is encoded, from its Content-Type.
+enum class BodyKind {
+    kJson,       ///< application/json: the request as proto3 JSON
+    kBinary,     ///< application/octet-stream: the scan's cloud file; the rest in the query
+    kMultipart,  ///< multipart/form-data: a `request` JSON part, files cloud / left / right
+    kOther,
+};
+BodyKind BodyKindOf(std::string_view content_type);
+
+/// Fills `message` (the route's request message) as grpc-gateway does - the body as proto3 JSON
 /// when the route takes one (body "*"; unknown fields ignored), the path values, then the query
-/// parameters (scalar fields by proto or JSON name; none on a route that takes the body).
-/// InvalidArgument naming the field or parameter at fault.
+/// parameters (fields by dotted proto or JSON name; none beside a JSON body) - and, for routes
+/// whose request carries a `scan`, from a binary or multipart body (BodyKind): a binary body's
+/// bytes move into scan.cloud.data (`body` is left empty). A query parameter or part naming a
+/// message field takes its proto3 JSON. InvalidArgument naming the field or parameter at fault.
 absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std::string>& path,
-                         std::string_view query, const std::string& body,
+                         std::string_view query, std::string_view content_type, std::string& body,
                          google::protobuf::Message* message);
 
 /// The name=value pairs of a query string (after '?'), percent-decoded, '+' read as a space;

@@ -1,7 +1,8 @@
 // libFuzzer: the REST binding's own parts on any request line and body: route matching with
 // percent-decoding of path values, then the body, path values and query parameters bound to the
 // route's request message as grpc-gateway does (server::BindRequest). The input is
-// "VERB PATH[?QUERY]\n" followed by the JSON body.
+// "VERB PATH[?QUERY][ CONTENT-TYPE]\n" followed by the body (JSON by default; binary and
+// multipart/form-data bodies when the content type says so).
 #include <cstdint>
 #include <cstdlib>
 #include <memory>
@@ -37,7 +38,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         return 0;
     }
     const std::string verb(input.substr(0, space));
-    const std::string target(input.substr(space + 1, line_end - space - 1));
+    const std::string_view rest = input.substr(space + 1, line_end - space - 1);
+    const std::size_t type_at = rest.find(' ');
+    const std::string target(rest.substr(0, type_at));
+    const std::string content_type = type_at == std::string_view::npos
+                                         ? std::string("application/json")
+                                         : std::string(rest.substr(type_at + 1));
     const std::size_t question = target.find('?');
     const std::string path = target.substr(0, question);
     const std::string query = question == std::string::npos ? "" : target.substr(question + 1);
@@ -50,9 +56,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         google::protobuf::MessageFactory::generated_factory()
             ->GetPrototype(method->input_type())
             ->New());
-    const std::string body(input.substr(line_end + 1));
-    const absl::Status bound =
-        soilvol::server::BindRequest(*match->route, match->fields, query, body, request.get());
+    std::string body(input.substr(line_end + 1));
+    const absl::Status bound = soilvol::server::BindRequest(*match->route, match->fields, query,
+                                                            content_type, body, request.get());
     // A bound request keeps every path value it was given.
     for (const auto& [field, value] : match->fields) {
         const auto* descriptor = request->GetDescriptor()->FindFieldByName(field);

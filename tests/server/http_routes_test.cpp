@@ -2,7 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "server/http_gateway.hpp"
 #include "soilvol/v1/soilvol.pb.h"
@@ -72,6 +76,128 @@ TEST(HttpRoutes, UnknownPathsVerbsAndBadEncodingAreRefused) {
         absl::IsUnimplemented(MatchRoute(routes, "GET", "/v1/containers/a:estimate").status()));
     EXPECT_TRUE(absl::IsInvalidArgument(MatchRoute(routes, "GET", "/v1/containers/a%2").status()));
     EXPECT_TRUE(absl::IsInvalidArgument(MatchRoute(routes, "GET", "/v1/containers/a%zz").status()));
+}
+
+const HttpRoute& RouteOf(const std::vector<HttpRoute>& routes, const std::string& method) {
+    for (const HttpRoute& route : routes) {
+        if (route.method == method) return route;
+    }
+    throw std::runtime_error("no route for " + method);
+}
+
+class BindRequestTest : public ::testing::Test {
+  protected:
+    absl::Status Bind(const std::string& method, const std::string& query,
+                      const std::string& content_type, std::string body,
+                      google::protobuf::Message* message,
+                      std::map<std::string, std::string> path = {}) {
+        return BindRequest(RouteOf(routes_, method), path, query, content_type, body, message);
+    }
+    std::vector<HttpRoute> routes_ = *RoutesFromAnnotations(Api());
+};
+
+TEST_F(BindRequestTest, JsonBodiesIgnoreUnknownFieldsAndRefuseQueryParameters) {
+    v1::RegisterContainerRequest request;
+    ASSERT_TRUE(Bind("RegisterContainer", "", "application/json",
+                     R"({"containerId": "a", "fromANewerClient": {"x": 1}})", &request)
+                    .ok());
+    EXPECT_EQ(request.container_id(), "a");
+    const absl::Status status =
+        Bind("RegisterContainer", "overwrite=true", "application/json", "{}", &request);
+    EXPECT_TRUE(absl::IsInvalidArgument(status));
+}
+
+TEST_F(BindRequestTest, BinaryBodyIsTheCloudAndTheQueryTheRest) {
+    v1::EstimateVolumeRequest request;
+    const std::string ply = std::string("ply\0binary", 10);
+    std::string body = ply;
+    const absl::Status status = BindRequest(
+        RouteOf(routes_, "EstimateVolume"), {{"container_id", "b7"}},
+        "gridCellM=0.05&method=ESTIMATION_METHOD_PAPER&container_pose.pose.position_m.x=1.5&"
+        "containerPose.positionSigmaM=0.1&requestId=r%201",
+        "application/octet-stream", body, &request);
+    ASSERT_TRUE(status.ok()) << status;
+    EXPECT_EQ(request.scan().cloud().data(), ply);
+    EXPECT_TRUE(body.empty());  // moved, not copied
+    EXPECT_EQ(request.container_id(), "b7");
+    EXPECT_DOUBLE_EQ(request.grid_cell_m(), 0.05);
+    EXPECT_EQ(request.method(), v1::ESTIMATION_METHOD_PAPER);
+    EXPECT_DOUBLE_EQ(request.container_pose().pose().position_m().x(), 1.5);
+    EXPECT_DOUBLE_EQ(request.container_pose().position_sigma_m(), 0.1);
+    EXPECT_EQ(request.request_id(), "r 1");
+}
+
+TEST_F(BindRequestTest, QueryMessagesTakeJsonAndEnumsTakeNumbers) {
+    v1::RegisterContainerRequest request;
+    const absl::Status status =
+        Bind("RegisterContainer",
+             "opening=%7B%22corners%22%3A%5B%7B%22x%22%3A1%7D%5D%7D&containerId=c&overwrite=true",
+             "application/octet-stream", "ply", &request);
+    ASSERT_TRUE(status.ok()) << status;
+    ASSERT_EQ(request.opening().corners_size(), 1);
+    EXPECT_DOUBLE_EQ(request.opening().corners(0).x(), 1.0);
+    EXPECT_TRUE(request.overwrite());
+    v1::EstimateVolumeRequest estimate;
+    ASSERT_TRUE(
+        Bind("EstimateVolume", "method=2", "application/octet-stream", "ply", &estimate).ok());
+    EXPECT_EQ(estimate.method(), v1::ESTIMATION_METHOD_PAPER);
+}
+
+TEST_F(BindRequestTest, BadParametersNameThemselves) {
+    const std::pair<std::string, std::string> cases[] = {
+        {"gridCel=1", "unknown parameter 'gridCel'"},
+        {"grid_cell_m=abc", "grid_cell_m: 'abc' is not a valid value"},
+        {"method=NOPE", "method: 'NOPE' is not a valid value"},
+        {"scan.cloud.data=abc", "scan.cloud.data: bytes cannot be set"},
+        {"container_pose.pose.nope=1", "unknown parameter"},
+        {"grid_cell_m.x=1", "unknown parameter"},
+        {"opening=%7Bnot%20json", "opening: "},
+        {"overwrite=yes", "overwrite: 'yes' is not a valid value"},
+    };
+    for (const auto& [query, message] : cases) {
+        v1::EstimateVolumeRequest request;
+        v1::RegisterContainerRequest register_request;
+        const bool registering = query.rfind("opening", 0) == 0 || query.rfind("overwrite", 0) == 0;
+        const absl::Status status =
+            registering
+                ? Bind("RegisterContainer", query, "application/octet-stream", "ply",
+                       &register_request)
+                : Bind("EstimateVolume", query, "application/octet-stream", "ply", &request);
+        EXPECT_TRUE(absl::IsInvalidArgument(status)) << query;
+        EXPECT_NE(status.message().find(message), std::string::npos) << status << " for " << query;
+    }
+}
+
+TEST_F(BindRequestTest, MultipartFillsTheScanFromFileParts) {
+    const std::string body =
+        "--B\r\nContent-Disposition: form-data; name=\"request\"\r\n\r\n"
+        "{\"containerId\": \"s1\", \"overwrite\": true}\r\n"
+        "--B\r\nContent-Disposition: form-data; name=\"max_range_m\"\r\n\r\n12.5\r\n"
+        "--B\r\nContent-Disposition: form-data; name=\"left\"; filename=\"l.png\"\r\n\r\nLEFT\r\n"
+        "--B\r\nContent-Disposition: form-data; name=\"right\"; filename=\"r.png\"\r\n\r\nRIGHT\r\n"
+        "--B--\r\n";
+    v1::RegisterContainerRequest request;
+    const absl::Status status =
+        Bind("RegisterContainer", "", "multipart/form-data; boundary=B", body, &request);
+    ASSERT_TRUE(status.ok()) << status;
+    EXPECT_EQ(request.container_id(), "s1");
+    EXPECT_TRUE(request.overwrite());
+    EXPECT_DOUBLE_EQ(request.max_range_m(), 12.5);
+    EXPECT_EQ(request.scan().stereo().left(), "LEFT");
+    EXPECT_EQ(request.scan().stereo().right(), "RIGHT");
+}
+
+TEST_F(BindRequestTest, RoutesWithoutAScanTakeNoFiles) {
+    v1::CalibrateRequest request;
+    EXPECT_TRUE(absl::IsInvalidArgument(
+        Bind("Calibrate", "", "application/octet-stream", "ply", &request)));
+    const std::string body =
+        "--B\r\nContent-Disposition: form-data; name=\"cloud\"\r\n\r\nply\r\n--B--\r\n";
+    const absl::Status status =
+        Bind("Calibrate", "", "multipart/form-data; boundary=B", body, &request);
+    EXPECT_NE(status.message().find("takes no scan"), std::string::npos) << status;
+    EXPECT_TRUE(
+        absl::IsInvalidArgument(Bind("RegisterContainer", "", "text/plain", "x", &request)));
 }
 
 TEST(GrpcTimeout, ParsesEveryUnitAndRefusesJunk) {
