@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Static checks of what cannot run here (no Docker engine, no cluster) and of the shell scripts:
 # ShellCheck, yamllint, the Dockerfile linter, the compose schema and linter, and the Kubernetes
-# manifests (tests/ship/check-deploy.sh: kustomize + OpenAPI schemas). Consistency with the
+# manifests (tests/ship/check-deploy.sh: kustomize + OpenAPI schemas), the API (buf lint and
+# buf breaking, scripts/check-proto.sh). Consistency with the
 # server (ports, flags, packages, users) is tested by CTest's ship.* tests. Needs
 # scripts/install-deps.sh and scripts/install-test-tools.sh first; a missing tool is an error.
 set -euo pipefail
@@ -35,4 +36,5 @@ step "Dockerfile (dockerfile-utils lint)" "$bin/dockerfile-utils" lint docker/Do
 step "compose (dclint)" "$bin/dclint" --disable-rule no-build-and-image --max-warnings 0 \
     docker/compose.yaml
 step "Kubernetes manifests" env SOILVOL_TOOLS_DIR="$tools_dir" tests/ship/check-deploy.sh
+step "API (buf lint, buf breaking)" env SOILVOL_TOOLS_DIR="$tools_dir" scripts/check-proto.sh
 echo "check-static: all passed"

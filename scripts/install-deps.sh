@@ -9,7 +9,7 @@ packages=(
     libeigen3-dev libabsl-dev libpcl-dev libnanoflann-dev liblzf-dev libcli11-dev
     libopencv-dev opencv-doc
     libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc grpc-proto
-    libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev golang-github-gogo-googleapis-dev
+    libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev golang-github-gogo-googleapis-dev golang-grpc-gateway
     python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
     clang-format shellcheck yamllint

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "google/protobuf/util/json_util.h"
+#include "proto/openapi_document.hpp"
 #include "server/call_ids.hpp"
 #include "server/multipart.hpp"
 #include "server/status_map.hpp"
@@ -243,7 +244,7 @@ std::optional<HttpResponse> HttpGateway::Admit(const HttpRequest& head) const {
             origin);
     }
     if (head.method == "OPTIONS" || head.path == "/healthz" || head.path == "/readyz" ||
-        head.path == "/metrics") {
+        head.path == "/metrics" || head.path == "/openapi.json") {
         return std::nullopt;
     }
     absl::StatusOr<RouteMatch> match = MatchRoute(routes_, head.method, head.path);
@@ -293,6 +294,12 @@ bool HttpGateway::ServeOperational(const HttpRequest& request, bool probe,
         const bool ready = !shutting_down_ && ready_();
         exchange.Respond(JsonResponse(
             ready ? 200 : 503, ready ? R"({"status":"SERVING"})" : R"({"status":"NOT_SERVING"})"));
+        return true;
+    }
+    if (request.path == "/openapi.json" && !probe) {  // the API's description, not its data
+        HttpResponse response = JsonResponse(200, std::string(proto::OpenApiDocument()));
+        ApplyCors(request.headers.Get("Origin"), response.headers);
+        exchange.Respond(std::move(response));
         return true;
     }
     if (request.path != "/metrics" || options_.metrics == MetricsAccess::kOff) return false;
