@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs every Debian package soilvol's build and tests need. Idempotent and non-interactive:
 # does nothing when all packages are present. Uses sudo when not run as root.
-# `install-deps.sh fuzz` adds clang and libFuzzer for scripts/fuzz.sh (not in the images).
+# Extra groups (not in the images): `fuzz` adds clang and libFuzzer for scripts/fuzz.sh; `test`
+# adds what the tests drive the server with: Go and Debian's gRPC Go packages and protoc plugins
+# (client/examples/go) and Chromium (the browser test).
 set -euo pipefail
 
 packages=(
@@ -9,14 +11,25 @@ packages=(
     libeigen3-dev libabsl-dev libpcl-dev libnanoflann-dev liblzf-dev libcli11-dev
     libopencv-dev opencv-doc
     libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc grpc-proto
-    libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev golang-github-gogo-googleapis-dev golang-grpc-gateway
+    libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev
+    golang-github-gogo-googleapis-dev golang-grpc-gateway
     python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
     clang-format shellcheck yamllint
 )
-if [ "${1:-}" = "fuzz" ]; then
-    packages+=(clang libfuzzer-14-dev libomp-14-dev)
-fi
+for group in "$@"; do
+    case "$group" in
+        fuzz) packages+=(clang libfuzzer-14-dev libomp-14-dev) ;;
+        test)
+            packages+=(golang-go golang-google-grpc-dev golang-google-genproto-dev
+                golang-google-protobuf-dev protoc-gen-go protoc-gen-go-grpc chromium)
+            ;;
+        *)
+            echo "install-deps: unknown group '$group' (fuzz, test)" >&2
+            exit 2
+            ;;
+    esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

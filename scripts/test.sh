@@ -4,7 +4,7 @@
 # servers (tests/integration).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/install-deps.sh
+scripts/install-deps.sh test
 scripts/install-test-tools.sh
 scripts/build.sh
 ctest --test-dir "${SOILVOL_BUILD_DIR:-build}" --output-on-failure -j "$(nproc)"
