@@ -1,5 +1,5 @@
-"""A real browser against the REST gateway: headless Chromium (Debian `chromium`) loads a page
-from another origin whose script calls soilvol with `fetch` - an `Authorization` bearer token,
+"""A real browser against the REST gateway: headless Chromium (Debian `chromium`) loads a
+page of another origin whose script calls soilvol with `fetch` - an `Authorization` bearer token,
 `X-Request-Id` and `traceparent` headers, so a CORS preflight - and reads the JSON, the exposed
 `X-Request-Id`, and a 401's google.rpc.Status; a server that does not allow the page's origin is
 blocked by the browser. The page writes what it saw into the DOM, which --dump-dom prints."""
