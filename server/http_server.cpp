@@ -13,6 +13,7 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/ssl.hpp>
+#include <deque>
 #include <limits>
 #include <mutex>
 #include <thread>
@@ -238,6 +239,35 @@ class Exchange final : public HttpExchange, public std::enable_shared_from_this<
           closed_(std::move(closed)),
           body_(std::move(body)) {}
 
+    bool StartStream(HttpResponse head) override {
+        if (answered_.exchange(true)) return false;
+        body_.reset();
+        std::shared_ptr<Connection<Stream>> connection = Current();
+        if (!connection || *closed_) return false;
+        streaming_ = true;
+        connection->PostStreamHead(std::move(head));
+        return true;
+    }
+
+    bool Send(std::string chunk) override {
+        if (!streaming_ || finished_ || *closed_) return false;
+        if (chunk.empty()) return true;
+        std::shared_ptr<Connection<Stream>> connection = Current();
+        if (!connection) return false;
+        connection->PostStreamChunk(std::move(chunk), false);
+        return true;
+    }
+
+    void Finish() override {
+        if (!streaming_ || finished_.exchange(true)) return;
+        std::shared_ptr<Connection<Stream>> connection;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            connection = std::move(connection_);
+        }
+        if (connection) connection->PostStreamChunk({}, true);
+    }
+
     void Respond(HttpResponse response) override {
         if (answered_.exchange(true)) return;
         body_.reset();
@@ -260,18 +290,25 @@ class Exchange final : public HttpExchange, public std::enable_shared_from_this<
     }
 
     bool Gone() const override {
-        if (answered_ || *closed_) return true;
+        if ((answered_ && !streaming_) || finished_ || *closed_) return true;
         pollfd watch{fd_, POLLRDHUP, 0};
         return ::poll(&watch, 1, 0) > 0 && (watch.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0;
     }
 
   private:
+    std::shared_ptr<Connection<Stream>> Current() {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return connection_;
+    }
+
     std::mutex mutex_;
     std::shared_ptr<Connection<Stream>> connection_;  ///< kept open until the answer is sent
     const int fd_;
     std::shared_ptr<std::atomic<bool>> closed_;
     std::unique_ptr<BodyReservation> body_;
     std::atomic<bool> answered_{false};
+    std::atomic<bool> streaming_{false};
+    std::atomic<bool> finished_{false};
 };
 
 template <typename Stream>
@@ -314,6 +351,21 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
                            fallback = std::move(fallback)](beast::error_code ec) mutable {
                               if (!ec) exchange->Respond(std::move(fallback));
                           });
+                  });
+    }
+
+    void PostStreamHead(HttpResponse head) {
+        net::post(stream_.get_executor(),
+                  [self = this->shared_from_this(), head = std::move(head)]() mutable {
+                      self->WriteStreamHead(std::move(head));
+                  });
+    }
+
+    /// One chunk of a streamed response, or its end (`last`).
+    void PostStreamChunk(std::string chunk, bool last) {
+        net::post(stream_.get_executor(),
+                  [self = this->shared_from_this(), chunk = std::move(chunk), last]() mutable {
+                      self->QueueChunk(std::move(chunk), last);
                   });
     }
 
@@ -525,6 +577,80 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
             });
     }
 
+    // A streamed response: the head, then the queued chunks one write at a time, then the
+    // last chunk; between writes the connection waits without a deadline.
+    void WriteStreamHead(HttpResponse response) {
+        if (*closed_) return;
+        deadline_.cancel();
+        auto message = std::make_shared<http::response<http::empty_body>>();
+        message->version(version_ == 0 ? 11 : version_);
+        message->result(static_cast<unsigned>(response.status));
+        for (const auto& [name, value] : response.headers.fields()) message->set(name, value);
+        message->set(http::field::content_type, response.content_type);
+        message->keep_alive(keep_alive_ && !close_after_);
+        message->chunked(true);
+        auto serializer = std::make_shared<http::response_serializer<http::empty_body>>(*message);
+        writing_ = true;
+        Lowest().expires_after(limits().write_timeout);
+        http::async_write_header(stream_, *serializer,
+                                 [self = this->shared_from_this(), message, serializer](
+                                     beast::error_code ec, std::size_t) {
+                                     self->OnStreamWrite(ec, message->keep_alive());
+                                 });
+    }
+
+    void QueueChunk(std::string chunk, bool last) {
+        if (*closed_) return;
+        if (last) {
+            stream_end_ = true;
+        } else {
+            backlog_ += chunk.size();
+            if (backlog_ > kStreamBacklogBytes) return Close();  // a reader that fell behind
+            pending_.push_back(std::move(chunk));
+        }
+        if (!writing_) FlushStream();
+    }
+
+    void FlushStream() {
+        if (writing_ || *closed_) return;
+        if (!pending_.empty()) {
+            auto chunk = std::make_shared<std::string>(std::move(pending_.front()));
+            pending_.pop_front();
+            backlog_ -= chunk->size();
+            writing_ = true;
+            Lowest().expires_after(limits().write_timeout);
+            return net::async_write(
+                stream_, http::make_chunk(net::buffer(*chunk)),
+                [self = this->shared_from_this(), chunk](beast::error_code ec, std::size_t) {
+                    self->OnStreamWrite(ec, self->stream_keep_alive_);
+                });
+        }
+        if (!stream_end_) return;
+        stream_end_ = false;
+        stream_done_ = true;
+        writing_ = true;
+        Lowest().expires_after(limits().write_timeout);
+        net::async_write(stream_, http::make_chunk_last(),
+                         [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
+                             self->OnStreamWrite(ec, self->stream_keep_alive_);
+                         });
+    }
+
+    void OnStreamWrite(beast::error_code ec, bool keep_alive) {
+        if (ec == beast::error::timeout) ++shared_->stats.timed_out;
+        if (ec) return Close();
+        writing_ = false;
+        stream_keep_alive_ = keep_alive;
+        if (stream_done_) {
+            stream_done_ = false;
+            if (!keep_alive) return Linger();
+            version_ = 0;
+            return WaitForRequest();
+        }
+        Lowest().expires_never();
+        FlushStream();
+    }
+
     // Closing with unread bytes would reset the connection and could lose the answer just
     // written: stop sending, read and drop what the client still sends for a moment, then close.
     void Linger() {
@@ -578,6 +704,13 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     std::uint64_t drained_ = 0;
     std::uint64_t drain_budget_ = kMinDrainBytes;
     std::array<char, 16384> scratch_{};
+    // A streamed response in progress.
+    std::deque<std::string> pending_;
+    std::size_t backlog_ = 0;
+    bool writing_ = false;
+    bool stream_end_ = false;
+    bool stream_done_ = false;
+    bool stream_keep_alive_ = true;
 };
 
 std::string PeerOf(const tcp::socket& socket) {

@@ -63,7 +63,22 @@ class HttpExchange {
     virtual bool Gone() const = 0;
     /// Sends `fallback` at `when` unless a response was sent before (the caller's deadline).
     virtual void RespondBy(std::chrono::steady_clock::time_point when, HttpResponse fallback) = 0;
+
+    /// A streamed response (Server-Sent Events, say) instead of Respond: the status and headers
+    /// of `head` now, with chunked transfer encoding and no deadline between chunks; then each
+    /// Send as one chunk, in order; Finish ends it. False when the exchange was answered or
+    /// the client is gone. Safe from any thread.
+    virtual bool StartStream(HttpResponse head) = 0;
+    /// Queues `chunk` (empty ones are skipped). False once the stream is over or the client is
+    /// gone; a client that falls kStreamBacklogBytes behind is disconnected (an SSE client
+    /// reconnects with its Last-Event-ID).
+    virtual bool Send(std::string chunk) = 0;
+    /// Ends the stream (the last chunk); the connection then serves its next request.
+    virtual void Finish() = 0;
 };
+
+/// What a streamed response may hold unsent for a slow reader before it is cut off.
+inline constexpr std::size_t kStreamBacklogBytes = 1 << 20;
 
 /// What slow, idle or greedy clients may take. Defaults fit a site network: a header must
 /// arrive within 10 s of its first byte, a body keep a modest pace, and no connection holds a

@@ -45,6 +45,18 @@ class RawClient {
             text.append(buffer, static_cast<std::size_t>(got));
         }
     }
+    /// Everything until `marker` has arrived (or the server closes, or 10 s pass).
+    std::string ReadUntil(const std::string& marker) {
+        char buffer[4096];
+        while (pending_.find(marker) == std::string::npos) {
+            const ssize_t got = ::recv(fd_, buffer, sizeof(buffer), 0);
+            if (got <= 0) break;
+            pending_.append(buffer, static_cast<std::size_t>(got));
+        }
+        std::string text;
+        text.swap(pending_);
+        return text;
+    }
     /// One response: reads until the header and Content-Length bytes of body have arrived.
     std::string ReadResponse() {
         std::string text;
@@ -66,6 +78,7 @@ class RawClient {
   private:
     int fd_;
     bool connected_ = false;
+    std::string pending_;
 };
 
 /// `counter` once it reaches `expected`, or its value after a second.
@@ -100,6 +113,29 @@ class HttpServerTest : public ::testing::Test {
                 return std::nullopt;
             },
             [this](HttpRequest request, std::shared_ptr<HttpExchange> exchange) {
+                if (request.path == "/stream") {
+                    // Server-Sent Events from another thread: one now, one when released.
+                    HttpResponse head;
+                    head.content_type = "text/event-stream";
+                    head.headers.Set("Cache-Control", "no-store");
+                    EXPECT_TRUE(exchange->StartStream(std::move(head)));
+                    EXPECT_FALSE(exchange->Gone());
+                    std::thread([exchange, this] {
+                        exchange->Send("id: 1\ndata: {\"n\":1}\n\n");
+                        while (!release_ && !stop_slow_ && !exchange->Gone()) {
+                            std::this_thread::sleep_for(milliseconds(5));
+                        }
+                        // A client that left: Send says so within a few tries.
+                        for (int i = 0; i < 200 && exchange->Send(": ping\n\n"); ++i) {
+                            if (release_) break;
+                            std::this_thread::sleep_for(milliseconds(5));
+                        }
+                        gone_seen_ = exchange->Gone();
+                        exchange->Send("id: 2\ndata: {\"n\":2}\n\n");
+                        exchange->Finish();
+                    }).detach();
+                    return;
+                }
                 if (request.path == "/slow") {
                     // Answers from another thread later, as the worker pool does.
                     std::thread([exchange, this] {
@@ -133,7 +169,39 @@ class HttpServerTest : public ::testing::Test {
     std::atomic<int> admitted_{0};
     std::atomic<bool> stop_slow_{false};
     std::atomic<bool> gone_seen_{false};
+    std::atomic<bool> release_{false};
 };
+
+TEST_F(HttpServerTest, StreamedResponsesArriveChunkByChunkAndKeepTheConnection) {
+    StartServer();
+    RawClient client(port_);
+    ASSERT_TRUE(client.Send("GET /stream HTTP/1.1\r\nHost: x\r\n\r\n"));
+    // The first event arrives while the stream is still open.
+    const std::string first = client.ReadUntil("data: {\"n\":1}");
+    EXPECT_EQ(StatusOf(first), 200) << first;
+    EXPECT_NE(first.find("Transfer-Encoding: chunked"), std::string::npos) << first;
+    EXPECT_NE(first.find("Content-Type: text/event-stream"), std::string::npos) << first;
+    EXPECT_EQ(first.find("id: 2"), std::string::npos);
+    release_ = true;
+    const std::string rest = client.ReadUntil("\r\n0\r\n\r\n");
+    EXPECT_NE(rest.find("id: 2\ndata: {\"n\":2}"), std::string::npos) << rest;
+    // The connection serves the next request.
+    ASSERT_TRUE(client.Send("POST /echo HTTP/1.1\r\nHost: x\r\nContent-Length: 3\r\n\r\nabc"));
+    const std::string next = client.ReadResponse();
+    EXPECT_EQ(StatusOf(next), 200) << next;
+    EXPECT_NE(next.find("{\"bytes\":3}"), std::string::npos) << next;
+}
+
+TEST_F(HttpServerTest, AStreamSeesItsClientLeave) {
+    StartServer();
+    {
+        RawClient client(port_);
+        ASSERT_TRUE(client.Send("GET /stream HTTP/1.1\r\nHost: x\r\n\r\n"));
+        client.ReadUntil("data: {\"n\":1}");
+    }  // gone while the stream waits for its next event
+    for (int i = 0; i < 200 && !gone_seen_; ++i) std::this_thread::sleep_for(milliseconds(10));
+    EXPECT_TRUE(gone_seen_);
+}
 
 TEST_F(HttpServerTest, ServesKeepAliveRequestsOnOneConnection) {
     StartServer();
