@@ -16,6 +16,19 @@ namespace {
 
 constexpr double kMaxRangeLimitM = 1000.0;
 
+absl::StatusOr<model::ModelConfig> ModelConfigFor(const v1::RegisterContainerRequest& request) {
+    model::ModelConfig config;
+    if (request.has_max_range_m()) {
+        const double range = request.max_range_m();
+        if (!std::isfinite(range) || range <= 0.0 || range > kMaxRangeLimitM) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("max_range_m: must be in (0, ", kMaxRangeLimitM, "] metres"));
+        }
+        config.preprocess.max_range_m = range;
+    }
+    return config;
+}
+
 }  // namespace
 
 absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmptyScans(
@@ -48,6 +61,35 @@ absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmpty
     return scans;
 }
 
+absl::StatusOr<model::ContainerModel> SoilVolumeHandlers::BuildModel(
+    const v1::RegisterContainerRequest& request, const Scan& scan, const model::ModelConfig& config,
+    v1::Container* response, CallRecord& record) const {
+    if (scan.calibration != nullptr && request.additional_scans_size() > 0) {
+        return absl::InvalidArgumentError(
+            "additional_scans: only point-cloud registrations fuse several scans");
+    }
+    SOILVOL_ASSIGN_OR_RETURN(const pipeline::OpeningMarks marks,
+                             ToOpeningMarks(request.opening(), scan.calibration != nullptr));
+    if (scan.calibration != nullptr) {
+        absl::StatusOr<pipeline::StereoModel> stereo = pipeline::BuildStereoContainerModel(
+            *scan.calibration->stereo, {scan.left, scan.right}, marks, config, {}, record.stop);
+        if (!stereo.ok()) return stereo.status();
+        record.stages_ms.push_back({"match", stereo->timings.match_ms});
+        response->set_registered_from(v1::SCAN_KIND_STEREO);
+        response->set_calibration_id(scan.calibration->info.calibration_id());
+        return std::move(stereo->model);
+    }
+    pipeline::RegistrationConfig registration;
+    registration.model = config;
+    SOILVOL_ASSIGN_OR_RETURN(std::vector<pipeline::EmptyScan> scans,
+                             DecodeEmptyScans(request, scan.cloud, registration.max_scans, record));
+    absl::StatusOr<pipeline::Registration> registered =
+        pipeline::RegisterContainer(std::get<Corners>(marks), scans, registration, record.stop);
+    if (!registered.ok()) return registered.status();
+    response->set_registered_from(v1::SCAN_KIND_CLOUD);
+    return std::move(registered->model);
+}
+
 absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRequest& request,
                                                    v1::Container* response, CallRecord& record) {
     const Create create{EntryKind::kContainer, request.container_id(), "container_id",
@@ -59,45 +101,11 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
     if (!request.has_opening()) {
         return absl::InvalidArgumentError("opening: is required (corners or pixel_corners)");
     }
-    model::ModelConfig config;
-    if (request.has_max_range_m()) {
-        const double range = request.max_range_m();
-        if (!std::isfinite(range) || range <= 0.0 || range > kMaxRangeLimitM) {
-            return absl::InvalidArgumentError(
-                absl::StrCat("max_range_m: must be in (0, ", kMaxRangeLimitM, "] metres"));
-        }
-        config.preprocess.max_range_m = range;
-    }
+    SOILVOL_ASSIGN_OR_RETURN(const model::ModelConfig config, ModelConfigFor(request));
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), "", record));
-    if (scan.calibration != nullptr && request.additional_scans_size() > 0) {
-        return absl::InvalidArgumentError(
-            "additional_scans: only point-cloud registrations fuse several scans");
-    }
-    SOILVOL_ASSIGN_OR_RETURN(const pipeline::OpeningMarks marks,
-                             ToOpeningMarks(request.opening(), scan.calibration != nullptr));
-
     Timer timer;
-    absl::StatusOr<model::ContainerModel> model;
-    if (scan.calibration != nullptr) {
-        absl::StatusOr<pipeline::StereoModel> stereo = pipeline::BuildStereoContainerModel(
-            *scan.calibration->stereo, {scan.left, scan.right}, marks, config, {}, record.stop);
-        if (!stereo.ok()) return stereo.status();
-        record.stages_ms.push_back({"match", stereo->timings.match_ms});
-        model = std::move(stereo->model);
-        response->set_registered_from(v1::SCAN_KIND_STEREO);
-        response->set_calibration_id(scan.calibration->info.calibration_id());
-    } else {
-        pipeline::RegistrationConfig registration;
-        registration.model = config;
-        SOILVOL_ASSIGN_OR_RETURN(
-            std::vector<pipeline::EmptyScan> scans,
-            DecodeEmptyScans(request, scan.cloud, registration.max_scans, record));
-        auto registered =
-            pipeline::RegisterContainer(std::get<Corners>(marks), scans, registration, record.stop);
-        if (!registered.ok()) return registered.status();
-        model = std::move(registered->model);
-        response->set_registered_from(v1::SCAN_KIND_CLOUD);
-    }
+    absl::StatusOr<model::ContainerModel> model =
+        BuildModel(request, scan, config, response, record);
     if (!model.ok()) return model.status();
     record.stages_ms.push_back({"register", timer.Lap()});
 

@@ -84,6 +84,13 @@ class SoilVolumeHandlers {
                                                          const pipeline::EstimateConfig& config,
                                                          v1::Timings* timings,
                                                          const StopToken& stop) const;
+    /// The model of a registration's decoded first scan (stereo, or cloud with the request's
+    /// additional scans fused); sets registered_from and calibration_id in `response`.
+    absl::StatusOr<model::ContainerModel> BuildModel(const v1::RegisterContainerRequest& request,
+                                                     const Scan& scan,
+                                                     const model::ModelConfig& config,
+                                                     v1::Container* response,
+                                                     CallRecord& record) const;
     /// `first` and the request's additional_scans, decoded (at most max_scans in all).
     absl::StatusOr<std::vector<pipeline::EmptyScan>> DecodeEmptyScans(
         const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
