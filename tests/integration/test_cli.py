@@ -72,6 +72,12 @@ class Cli(unittest.TestCase):
             self.assertEqual(gone.returncode, 1)
             self.assertIn("NOT_FOUND", gone.stderr)
 
+    def test_version_matches_the_server(self):
+        out = subprocess.run([CLI_BIN, "--version"], capture_output=True, text=True, check=True,
+                             timeout=30).stdout
+        info = self.server.rest("GET", "/v1/info")[1]
+        self.assertTrue(out.startswith(f"soilvol {info['version']} (revision "), out)
+
     def test_errors_exit_non_zero_with_the_server_message(self):
         bad = self.run_cli("register", "--id", "../x", "--cloud", "/dev/null", "--corners",
                            "0,0,0;1,0,0;1,1,0;0,1,0", check=False)
