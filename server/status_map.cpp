@@ -37,6 +37,24 @@ bool IsFieldStep(std::string_view step) {
     return IsFieldName(step.substr(0, open));
 }
 
+enum class Escape { kJson, kC };
+
+/// `c` when it is printable ASCII, else its byte escaped: \u00NN (JSON) or \xNN.
+void AppendPrintable(char c, Escape escape, std::string* out) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte <= 0x7e) {
+        *out += c;
+        return;
+    }
+    char buffer[8];
+    if (escape == Escape::kJson) {
+        std::snprintf(buffer, sizeof(buffer), "\\u%04x", static_cast<unsigned>(byte));
+    } else {
+        std::snprintf(buffer, sizeof(buffer), "\\x%02x", static_cast<unsigned>(byte));
+    }
+    *out += buffer;
+}
+
 }  // namespace
 
 int HttpStatusFor(absl::StatusCode code) {
@@ -142,13 +160,7 @@ std::string JsonQuote(std::string_view text) {
             default:
                 // Control bytes and bytes above ASCII (which may not be valid UTF-8) are escaped,
                 // so the output is always valid JSON.
-                if (const auto byte = static_cast<unsigned char>(c); byte < 0x20 || byte > 0x7e) {
-                    char buffer[8];
-                    std::snprintf(buffer, sizeof(buffer), "\\u%04x", static_cast<unsigned>(byte));
-                    out += buffer;
-                } else {
-                    out += c;
-                }
+                AppendPrintable(c, Escape::kJson, &out);
         }
     }
     return out + "\"";
@@ -187,15 +199,7 @@ int RetryAfterSeconds(const absl::Status& status) {
 std::string SafeMessage(absl::string_view message) {
     std::string out;
     out.reserve(message.size());
-    for (const char c : message) {
-        if (const auto byte = static_cast<unsigned char>(c); byte < 0x20 || byte > 0x7e) {
-            char buffer[8];
-            std::snprintf(buffer, sizeof(buffer), "\\x%02x", static_cast<unsigned>(byte));
-            out += buffer;
-        } else {
-            out += c;
-        }
-    }
+    for (const char c : message) AppendPrintable(c, Escape::kC, &out);
     return out;
 }
 
