@@ -108,6 +108,7 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
         RunEstimate(*container, scan, config, response->mutable_timings(), record.stop));
 
     ToProto(estimate, response);
+    if (!request.omit_heightmap()) ToProto(estimate.volume, response->mutable_heightmap());
     response->set_container_id(request.container_id());
     response->set_request_id(request.request_id());
     response->set_method(config.method == volume::Method::kPaper ? v1::ESTIMATION_METHOD_PAPER

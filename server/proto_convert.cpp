@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/volume/load_distribution.hpp"
 
 namespace soilvol::server {
 namespace {
@@ -217,6 +218,15 @@ absl::StatusOr<Pose> ToPose(const v1::Pose& proto, const std::string& field) {
     return pose;
 }
 
+void ToProto(const volume::VolumeResult& volume, v1::Heightmap* proto) {
+    proto->set_heights_f32le(volume::PackedHeights(volume));
+    proto->set_cols(volume.grid.cols);
+    proto->set_rows(volume.grid.rows);
+    proto->set_cell_m(volume.grid.cell_m);
+    proto->set_origin_x_m(volume.grid.origin.x());
+    proto->set_origin_y_m(volume.grid.origin.y());
+}
+
 void ToProto(const Pose& pose, v1::Pose* proto) {
     v1::Point3* position = proto->mutable_position_m();
     position->set_x(pose.translation().x());
@@ -260,6 +270,13 @@ void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeRespons
     coverage->set_scan_observed_share(estimate.volume.scan_observed_share);
     coverage->set_unobserved_uncertainty_m3(estimate.volume.unobserved_uncertainty_m3);
     ToProto(estimate.alignment.T_scan_container, proto->mutable_container_pose());
+    const volume::LoadDistribution load = volume::DistributionOf(estimate.volume);
+    v1::LoadDistribution* distribution = proto->mutable_distribution();
+    distribution->set_centre_x_m(load.centre_m.x());
+    distribution->set_centre_y_m(load.centre_m.y());
+    distribution->set_positive_x_share(load.positive_x_share);
+    distribution->set_positive_y_share(load.positive_y_share);
+    distribution->set_asymmetry(load.asymmetry);
     if (estimate.from_kinematic) {
         v1::PoseDifference* difference = proto->mutable_pose_difference();
         const Eigen::Vector3d& t = estimate.from_kinematic->translation_m;

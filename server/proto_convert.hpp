@@ -34,6 +34,8 @@ void ToProto(const model::ContainerModel& model, v1::Container* proto);
 /// identity), else InvalidArgument naming `field`.
 absl::StatusOr<Pose> ToPose(const v1::Pose& proto, const std::string& field);
 void ToProto(const Pose& pose, v1::Pose* proto);
+/// The per-cell soil heights as a packed float32 heightmap.
+void ToProto(const volume::VolumeResult& volume, v1::Heightmap* proto);
 /// The estimate's figures into `proto` (stereo timings separately, by the caller).
 void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto);
 

@@ -4,6 +4,7 @@ messages (stubs for grpc.health.v1 would clash with the python package named grp
 import math
 import os
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -421,6 +422,43 @@ class GrpcFlow(unittest.TestCase):
                 self.assert_code(lambda: self.stub.EstimateVolume(pb.EstimateVolumeRequest(
                     container_id="kinematic-box", scan=scan, container_pose=bad), timeout=60),
                     CODE.INVALID_ARGUMENT, field)
+
+    def test_heightmap_and_distribution_describe_the_load(self):
+        self.register("heap-box", overwrite=True)
+        # Soil 0.2 m deep, plus a heap on the +x end: the load leans to +x.
+        points = box_scene.box_scan(0.2, seed=11)
+        heap = (points[:, 0] > 0.2) & (points[:, 2] > -box_scene.DEPTH + 0.19) & \
+            (abs(points[:, 0]) < box_scene.INNER_L / 2 - 0.01) & \
+            (abs(points[:, 1]) < box_scene.INNER_W / 2 - 0.01)
+        points[heap, 2] += 0.15
+        est = self.stub.EstimateVolume(pb.EstimateVolumeRequest(
+            container_id="heap-box", scan=cloud(box_scene.encode_ply(points))), timeout=60)
+        h = est.heightmap
+        self.assertEqual(len(h.heights_f32le), 4 * h.cols * h.rows)
+        self.assertAlmostEqual(h.cell_m, est.cells.cell_m)
+        heights = struct.unpack(f"<{h.cols * h.rows}f", h.heights_f32le)
+        observed = [v for v in heights if not math.isnan(v)]
+        self.assertGreater(len(observed), 0.8 * est.cells.total)
+        # Heights integrate to the volume over the observed cells (cells straddling the rim
+        # count whole here, so a few per cent over).
+        self.assertAlmostEqual(sum(observed) * h.cell_m ** 2, est.volume_m3,
+                               delta=0.1 * est.volume_m3)
+        # Cells on the heap side are higher than on the other.
+        column = lambda x: int((x - h.origin_x_m) / h.cell_m)  # noqa: E731
+        row = int((0.0 - h.origin_y_m) / h.cell_m)
+        self.assertAlmostEqual(heights[row * h.cols + column(0.4)], 0.35, delta=0.03)
+        self.assertAlmostEqual(heights[row * h.cols + column(-0.4)], 0.2, delta=0.03)
+        d = est.distribution
+        self.assertGreater(d.centre_x_m, 0.03)
+        self.assertAlmostEqual(d.centre_y_m, 0.0, delta=0.02)
+        self.assertGreater(d.positive_x_share, 0.55)
+        self.assertAlmostEqual(d.positive_y_share, 0.5, delta=0.03)
+        self.assertGreater(d.asymmetry, 0.05)
+        lean = self.stub.EstimateVolume(pb.EstimateVolumeRequest(
+            container_id="heap-box", scan=cloud(box_scene.encode_ply(points)),
+            omit_heightmap=True), timeout=60)
+        self.assertFalse(lean.HasField("heightmap"))
+        self.assertEqual(lean.distribution, d)
 
     def test_every_rpc_of_the_service_is_served(self):
         service = pb.DESCRIPTOR.services_by_name["SoilVolume"]
