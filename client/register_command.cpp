@@ -3,6 +3,7 @@
 #include <string>
 
 #include "client/commands.hpp"
+#include "client/container_settings.hpp"
 #include "client/input_files.hpp"
 #include "client/response_printer.hpp"
 #include "client/scan_options.hpp"
@@ -17,6 +18,7 @@ struct RegisterOptions {
     std::string pixel_corners;
     double max_range_m = 0.0;
     bool overwrite = false;
+    ContainerSettings settings;
 };
 
 absl::Status AddOpening(const RegisterOptions& options, v1::Opening* opening) {
@@ -52,6 +54,14 @@ int RunRegister(const RegisterOptions& options, bool has_max_range, const Global
     if (absl::Status status = AddOpening(options, request.mutable_opening()); !status.ok()) {
         return ReportUsageError(status);
     }
+    v1::Container settings;
+    if (absl::Status status = ApplySettings(options.settings, &settings, nullptr); !status.ok()) {
+        return ReportUsageError(status);
+    }
+    request.set_display_name(settings.display_name());
+    *request.mutable_labels() = settings.labels();
+    if (settings.has_material()) *request.mutable_material() = settings.material();
+    if (settings.has_load_targets()) *request.mutable_load_targets() = settings.load_targets();
     Connection connection(global);
     if (!connection.ok()) return kExitUsage;
     v1::Container container;
@@ -86,6 +96,7 @@ void AddRegisterCommand(CLI::App& app, const GlobalOptions& global, int* exit_co
                                    "points farther from the sensor are background [m]")
                       ->check(CLI::PositiveNumber);
     command->add_flag("--overwrite", options->overwrite, "replace a container with this id");
+    AddSettingsOptions(command, &options->settings);
     command->callback([options, range, &global, exit_code] {
         *exit_code = RunRegister(*options, range->count() > 0, global);
     });

@@ -3,6 +3,8 @@
 #include <string>
 
 #include "client/commands.hpp"
+#include "client/container_settings.hpp"
+#include "client/input_files.hpp"
 #include "client/response_printer.hpp"
 
 namespace soilvol::client {
@@ -90,6 +92,45 @@ int RunCalibrations(Action action, const std::string& id, const GlobalOptions& g
     return status.ok() ? kExitOk : ReportRpcError(status);
 }
 
+int RunUpdate(const std::string& id, const std::string& etag, const ContainerSettings& settings,
+              const GlobalOptions& global) {
+    v1::UpdateContainerRequest request;
+    request.mutable_container()->set_container_id(id);
+    request.mutable_container()->set_etag(etag);
+    if (absl::Status status =
+            ApplySettings(settings, request.mutable_container(), request.mutable_update_mask());
+        !status.ok()) {
+        return ReportUsageError(status);
+    }
+    if (request.update_mask().paths_size() == 0) {
+        return ReportUsageError(absl::InvalidArgumentError("give at least one setting to change"));
+    }
+    Connection connection(global);
+    if (!connection.ok()) return kExitUsage;
+    const auto context = connection.NewContext();
+    v1::Container container;
+    const grpc::Status status = connection.Soil().UpdateContainer(context.get(), request, &container);
+    if (!status.ok()) return ReportRpcError(status);
+    PrintContainer(container, global.json, std::cout);
+    return kExitOk;
+}
+
+void AddUpdateCommand(CLI::App& containers, const GlobalOptions& global, int* exit_code) {
+    struct Options {
+        std::string id, etag;
+        ContainerSettings settings;
+    };
+    auto options = std::make_shared<Options>();
+    auto* command = containers.add_subcommand(
+        "update", "change a container's name, labels, material or load targets (no rescan)");
+    command->add_option("id", options->id, "container id")->required();
+    command->add_option("--etag", options->etag, "update only the container at this etag");
+    AddSettingsOptions(command, &options->settings);
+    command->callback([options, &global, exit_code] {
+        *exit_code = RunUpdate(options->id, options->etag, options->settings, global);
+    });
+}
+
 using Runner = int (*)(Action, const std::string&, const GlobalOptions&);
 
 // `<noun> list | get ID | delete ID`.
@@ -115,6 +156,7 @@ void AddResource(CLI::App& app, const std::string& noun, const std::string& sing
 
 void AddResourceCommands(CLI::App& app, const GlobalOptions& global, int* exit_code) {
     AddResource(app, "containers", "container", RunContainers, global, exit_code);
+    AddUpdateCommand(*app.get_subcommand("containers"), global, exit_code);
     AddResource(app, "calibrations", "calibration", RunCalibrations, global, exit_code);
 }
 

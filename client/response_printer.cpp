@@ -95,7 +95,20 @@ void PrintContainer(const v1::Container& c, bool json, std::ostream& out) {
     std::string from = Kind(c.registered_from());
     if (!c.calibration_id().empty())
         absl::StrAppend(&from, " (calibration ", c.calibration_id(), ")");
+    std::string labels;
+    for (const auto& [key, value] : c.labels()) {
+        absl::StrAppend(&labels, labels.empty() ? "" : ", ", key, "=", value);
+    }
+    std::string targets = "none";
+    const v1::LoadTargets& t = c.load_targets();
+    if (t.has_volume_m3()) targets = absl::StrCat(Fixed(t.volume_m3(), 3), " m^3");
+    if (t.has_payload_kg()) targets = absl::StrCat(Fixed(t.payload_kg(), 0), " kg");
     PrintFields({{"container id", c.container_id()},
+                 {"display name", c.display_name()},
+                 {"labels", labels},
+                 {"material", absl::StrCat(c.material().name(), " ",
+                                           Fixed(c.material().density_kg_m3(), 0), " kg/m^3")},
+                 {"load target", targets},
                  {"registered from", from},
                  {"struck capacity [m^3]", Fixed(c.struck_capacity_m3(), 4)},
                  {"heaped SAE 1:1 [m^3]", Fixed(c.heaped_capacity_m3(), 4)},
@@ -135,6 +148,16 @@ void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream&
          {"fill of struck [%]", Percent(e.fill_ratio())},
          {"fill of heaped SAE [%]", Percent(e.fill_ratio_heaped())}});
     if (e.has_mass_kg()) fields.push_back({"mass [kg]", Fixed(e.mass_kg(), 1)});
+    if (e.has_load()) {
+        std::string status = absl::StrCat(
+            EnumLabel(v1::LoadStatus_Name(e.load().status()), "LOAD_STATUS_"), " (p ",
+            Fixed(e.load().status_probability(), 2), ")");
+        if (e.load().has_target_ratio()) {
+            absl::StrAppend(&status, ", ", Fixed(100.0 * e.load().target_ratio(), 1),
+                            "% of target");
+        }
+        fields.push_back({"load status", status});
+    }
     fields.insert(
         fields.end(),
         {{"alignment",

@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 11> kMethodScopes = {{
+constexpr std::array<MethodScope, 12> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -30,6 +30,7 @@ constexpr std::array<MethodScope, 11> kMethodScopes = {{
     {"RegisterContainer", Scope::kAdmin},
     {"GetContainer", Scope::kRead},
     {"ListContainers", Scope::kRead},
+    {"UpdateContainer", Scope::kAdmin},
     {"DeleteContainer", Scope::kAdmin},
     {"EstimateVolume", Scope::kEstimate},
     {"StreamEstimates", Scope::kEstimate},

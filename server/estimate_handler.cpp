@@ -101,6 +101,8 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::EstimateConfig config,
                              pipeline::ConfigureEstimate(options, container->model));
     SOILVOL_RETURN_IF_ERROR(CheckSameSensor(request.scan(), container->info));
+    SOILVOL_ASSIGN_OR_RETURN(const LoadRules rules, ToLoadRules(container->info.material(),
+                                                                container->info.load_targets()));
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan,
                              DecodeScan(request.scan(), container->info.calibration_id(), record));
     SOILVOL_ASSIGN_OR_RETURN(
@@ -113,9 +115,9 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     response->set_request_id(request.request_id());
     response->set_method(config.method == volume::Method::kPaper ? v1::ESTIMATION_METHOD_PAPER
                                                                  : v1::ESTIMATION_METHOD_HEIGHTMAP);
-    if (options.material_density_kg_m3) {
-        response->set_mass_kg(estimate.volume_m3 * *options.material_density_kg_m3);
-    }
+    ToProto(volume::AssessLoad(estimate.volume_m3, estimate.uncertainty_m3, rules.material,
+                               rules.targets, options.material_density_kg_m3),
+            response);
     RecordTimings(record, timer.Lap(), response->mutable_timings());
     record.volume_m3 = estimate.volume_m3;
     return absl::OkStatus();

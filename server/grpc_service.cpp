@@ -145,6 +145,7 @@ SOILVOL_UNARY_RPC(DeleteCalibration, DeleteCalibrationRequest, DeleteCalibration
 SOILVOL_UNARY_RPC(RegisterContainer, RegisterContainerRequest, Container)
 SOILVOL_UNARY_RPC(GetContainer, GetContainerRequest, Container)
 SOILVOL_UNARY_RPC(ListContainers, ListContainersRequest, ListContainersResponse)
+SOILVOL_UNARY_RPC(UpdateContainer, UpdateContainerRequest, Container)
 SOILVOL_UNARY_RPC(DeleteContainer, DeleteContainerRequest, DeleteContainerResponse)
 SOILVOL_UNARY_RPC(EstimateVolume, EstimateVolumeRequest, EstimateVolumeResponse)
 SOILVOL_UNARY_RPC(GetServerInfo, GetServerInfoRequest, ServerInfo)

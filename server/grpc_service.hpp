@@ -40,6 +40,9 @@ class SoilVolumeService final : public v1::SoilVolume::CallbackService {
     grpc::ServerUnaryReactor* ListContainers(grpc::CallbackServerContext* context,
                                              const v1::ListContainersRequest* request,
                                              v1::ListContainersResponse* response) override;
+    grpc::ServerUnaryReactor* UpdateContainer(grpc::CallbackServerContext* context,
+                                              const v1::UpdateContainerRequest* request,
+                                              v1::Container* response) override;
     grpc::ServerUnaryReactor* DeleteContainer(grpc::CallbackServerContext* context,
                                               const v1::DeleteContainerRequest* request,
                                               v1::DeleteContainerResponse* response) override;

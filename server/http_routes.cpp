@@ -3,12 +3,15 @@
 #include <set>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "core/common/status_macros.hpp"
 #include "google/api/annotations.pb.h"
+#include "google/protobuf/field_mask.pb.h"
+#include "google/protobuf/struct.pb.h"
 #include "google/protobuf/util/json_util.h"
 #include "server/multipart.hpp"
 #include "server/store/absl_view.hpp"
@@ -42,7 +45,7 @@ absl::StatusOr<HttpRoute> MakeRoute(const std::string& method, const std::string
             return absl::InvalidArgumentError(absl::StrCat(method, ": unclosed '{' in ", pattern));
         }
         const std::string field = pattern.substr(open + 1, close - open - 1);
-        if (field.find_first_of("=*.") != std::string::npos) {
+        if (field.find_first_of("=*") != std::string::npos) {
             return absl::InvalidArgumentError(
                 absl::StrCat(method, ": unsupported path variable {", field, "}"));
         }
@@ -124,6 +127,15 @@ absl::Status SetField(google::protobuf::Message* message, const std::string& nam
         google::protobuf::Message* target = field->is_repeated()
                                                 ? reflection->AddMessage(message, field)
                                                 : reflection->MutableMessage(message, field);
+        // FieldMask, Timestamp and Duration are JSON strings; a query gives them bare
+        // (?update_mask=displayName,labels), as grpc-gateway takes them.
+        const std::string& type = field->message_type()->full_name();
+        const bool string_form = type == "google.protobuf.FieldMask" ||
+                                 type == "google.protobuf.Timestamp" ||
+                                 type == "google.protobuf.Duration";
+        if (string_form && (value.empty() || value.front() != '"')) {
+            return ParseJsonInto(absl::StrCat("\"", absl::CEscape(value), "\""), target, path);
+        }
         return ParseJsonInto(value, target, path);
     }
     const bool repeated = field->is_repeated();
@@ -358,6 +370,55 @@ BodyKind BodyKindOf(std::string_view content_type) {
     return BodyKind::kOther;
 }
 
+/// The field mask grpc-gateway derives from a PATCH body: the paths of the fields the JSON
+/// object sets, through nested objects of message fields (not maps or well-known types).
+absl::Status AddMaskPaths(const google::protobuf::Struct& json,
+                          const google::protobuf::Descriptor& type, const std::string& prefix,
+                          google::protobuf::FieldMask* mask) {
+    using F = google::protobuf::FieldDescriptor;
+    for (const auto& [key, value] : json.fields()) {
+        const F* field = FindField(type, key);
+        if (field == nullptr) continue;  // unknown fields are ignored, as the parser does
+        const std::string path = prefix + field->name();
+        const bool nested = field->cpp_type() == F::CPPTYPE_MESSAGE && !field->is_repeated() &&
+                            field->message_type()->file()->package() != "google.protobuf" &&
+                            value.kind_case() == google::protobuf::Value::kStructValue;
+        if (nested) {
+            SOILVOL_RETURN_IF_ERROR(
+                AddMaskPaths(value.struct_value(), *field->message_type(), path + ".", mask));
+        } else {
+            mask->add_paths(path);
+        }
+    }
+    return absl::OkStatus();
+}
+
+/// A body naming one field (body: "container"): the JSON goes into that field and, when the
+/// request has an empty update_mask, the mask becomes the body's fields (grpc-gateway's rule).
+absl::Status BindBodyField(const std::string& body_field, const std::string& body,
+                           google::protobuf::Message* message) {
+    const google::protobuf::FieldDescriptor* field =
+        message->GetDescriptor()->FindFieldByName(body_field);
+    if (field == nullptr || field->message_type() == nullptr) {
+        return absl::InternalError(absl::StrCat("route body '", body_field, "' is no message"));
+    }
+    if (body.empty()) return absl::OkStatus();
+    google::protobuf::Message* target = message->GetReflection()->MutableMessage(message, field);
+    SOILVOL_RETURN_IF_ERROR(ParseJsonInto(body, target, "request body"));
+    const google::protobuf::FieldDescriptor* mask_field =
+        message->GetDescriptor()->FindFieldByName("update_mask");
+    if (mask_field == nullptr ||
+        mask_field->message_type() != google::protobuf::FieldMask::descriptor()) {
+        return absl::OkStatus();
+    }
+    google::protobuf::Struct json;
+    SOILVOL_RETURN_IF_ERROR(ParseJsonInto(body, &json, "request body"));
+    google::protobuf::FieldMask mask;
+    SOILVOL_RETURN_IF_ERROR(AddMaskPaths(json, *field->message_type(), "", &mask));
+    message->GetReflection()->MutableMessage(message, mask_field)->CopyFrom(mask);
+    return absl::OkStatus();
+}
+
 absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std::string>& path,
                          std::string_view query, std::string_view content_type, std::string& body,
                          google::protobuf::Message* message) {
@@ -366,6 +427,8 @@ absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std
         case BodyKind::kJson:
             if (route.body == "*" && !body.empty()) {
                 SOILVOL_RETURN_IF_ERROR(ParseJsonInto(body, message, "request body"));
+            } else if (!route.body.empty() && route.body != "*") {
+                SOILVOL_RETURN_IF_ERROR(BindBodyField(route.body, body, message));
             }
             break;
         case BodyKind::kBinary: {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
 #include "core/volume/load_distribution.hpp"
 
 namespace soilvol::server {
@@ -286,6 +287,67 @@ void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeRespons
         difference->set_distance_m(estimate.from_kinematic->distance_m);
         difference->set_rotation_deg(estimate.from_kinematic->rotation_deg);
     }
+}
+
+}  // namespace soilvol::server
+
+namespace soilvol::server {
+
+absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material,
+                                      const v1::LoadTargets& targets) {
+    LoadRules out;
+    out.material.name = material.name();
+    out.material.density_kg_m3 = material.density_kg_m3();
+    if (material.bulking_factor() != 0.0) out.material.bulking_factor = material.bulking_factor();
+    volume::LoadTargets& t = out.targets;
+    switch (targets.target_case()) {
+        case v1::LoadTargets::kVolumeM3:
+            t.quantity = volume::LoadTargets::Quantity::kVolume;
+            t.target = targets.volume_m3();
+            break;
+        case v1::LoadTargets::kPayloadKg:
+            t.quantity = volume::LoadTargets::Quantity::kPayload;
+            t.target = targets.payload_kg();
+            break;
+        case v1::LoadTargets::TARGET_NOT_SET:
+            break;
+    }
+    if (targets.has_under_tolerance()) t.under_tolerance = targets.under_tolerance();
+    if (targets.has_over_tolerance()) t.over_tolerance = targets.over_tolerance();
+    t.carryback_m3 = targets.carryback_m3();
+    t.empty_m3 = targets.empty_m3();
+    SOILVOL_RETURN_IF_ERROR(volume::CheckLoadRules(out.material, out.targets));
+    return out;
+}
+
+void ToProto(const volume::LoadAssessment& load, v1::EstimateVolumeResponse* proto) {
+    v1::LoadAssessment* out = proto->mutable_load();
+    switch (load.status) {
+        case volume::LoadStatus::kEmpty:
+            out->set_status(v1::LOAD_STATUS_EMPTY);
+            break;
+        case volume::LoadStatus::kCarryback:
+            out->set_status(v1::LOAD_STATUS_CARRYBACK);
+            break;
+        case volume::LoadStatus::kUnderloaded:
+            out->set_status(v1::LOAD_STATUS_UNDERLOADED);
+            break;
+        case volume::LoadStatus::kLoadedOk:
+            out->set_status(v1::LOAD_STATUS_LOADED_OK);
+            break;
+        case volume::LoadStatus::kOverloaded:
+            out->set_status(v1::LOAD_STATUS_OVERLOADED);
+            break;
+        case volume::LoadStatus::kLoaded:
+            out->set_status(v1::LOAD_STATUS_LOADED);
+            break;
+    }
+    out->set_status_probability(load.status_probability);
+    if (load.target_ratio) out->set_target_ratio(*load.target_ratio);
+    if (load.bank_volume_m3) out->set_bank_volume_m3(*load.bank_volume_m3);
+    if (load.mass_kg) proto->set_mass_kg(*load.mass_kg);
+    if (load.mass_sigma_kg) out->set_mass_uncertainty_kg(*load.mass_sigma_kg);
+    out->set_empty_threshold_m3(load.empty_threshold_m3);
 }
 
 }  // namespace soilvol::server

@@ -8,6 +8,7 @@
 #include "core/model/container_model.hpp"
 #include "core/pipeline/stereo_estimator.hpp"
 #include "core/stereo/calibration.hpp"
+#include "core/volume/load_status.hpp"
 #include "soilvol/v1/soilvol.pb.h"
 
 namespace soilvol::server {
@@ -25,6 +26,15 @@ absl::StatusOr<pipeline::OpeningMarks> ToOpeningMarks(const v1::Opening& proto, 
 /// the field for parameters the core refuses.
 absl::StatusOr<stereo::StereoCalibration> ToStereoCalibration(const v1::Calibration& proto);
 
+/// A container's material and load targets (unset fields at their defaults), checked by core's
+/// rules: InvalidArgument naming the field ("material.density_kg_m3").
+struct LoadRules {
+    volume::Material material;
+    volume::LoadTargets targets;
+};
+absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material,
+                                      const v1::LoadTargets& targets);
+
 /// Core -> proto.
 void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto);
 void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto);
@@ -38,5 +48,7 @@ void ToProto(const Pose& pose, v1::Pose* proto);
 void ToProto(const volume::VolumeResult& volume, v1::Heightmap* proto);
 /// The estimate's figures into `proto` (stereo timings separately, by the caller).
 void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto);
+/// The assessment into `proto`'s load (and mass_kg).
+void ToProto(const volume::LoadAssessment& load, v1::EstimateVolumeResponse* proto);
 
 }  // namespace soilvol::server

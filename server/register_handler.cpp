@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -5,7 +7,10 @@
 #include "core/common/timer.hpp"
 #include "core/model/model_codec.hpp"
 #include "core/pipeline/registration.hpp"
+#include "google/protobuf/util/field_mask_util.h"
 #include "google/protobuf/util/time_util.h"
+#include "server/resource_rules.hpp"
+#include "server/store/entry_id.hpp"
 #include "server/proto_convert.hpp"
 #include "server/soilvol_handlers.hpp"
 #include "server/status_map.hpp"
@@ -27,6 +32,65 @@ absl::StatusOr<model::ModelConfig> ModelConfigFor(const v1::RegisterContainerReq
         config.preprocess.max_range_m = range;
     }
     return config;
+}
+
+/// The settings of a container (what UpdateContainer can change) by their rules, fields named
+/// by `prefix` ("" for a registration, "container." for an update).
+absl::Status CheckSettings(const v1::Container& container, const std::string& prefix) {
+    SOILVOL_RETURN_IF_ERROR(
+        ValidateDisplayName(container.display_name(), absl::StrCat(prefix, "display_name")));
+    const std::string labels = absl::StrCat(prefix, "labels");
+    if (container.labels_size() > kMaxLabels) {
+        return absl::InvalidArgumentError(absl::StrCat(labels, ": at most ", kMaxLabels, " (got ",
+                                                       container.labels_size(), ")"));
+    }
+    for (const auto& [key, value] : container.labels()) {
+        SOILVOL_RETURN_IF_ERROR(ValidateLabel(key, value, labels));
+    }
+    absl::StatusOr<LoadRules> rules = ToLoadRules(container.material(), container.load_targets());
+    if (!rules.ok()) {
+        return absl::InvalidArgumentError(absl::StrCat(prefix, rules.status().message()));
+    }
+    return absl::OkStatus();
+}
+
+constexpr std::array<const char*, 4> kSettings = {"display_name", "labels", "material",
+                                                  "load_targets"};
+
+/// The mask of an update (AIP-134): the request's paths that are settings or fields inside
+/// one ("*" for all settings), or - without paths - the settings the request sets. Paths of
+/// the container's other fields (its id, etag, and output-only figures, which a client that
+/// sends back what it read names) are ignored; paths of no field are an error.
+absl::StatusOr<google::protobuf::FieldMask> UpdateMaskOf(const v1::UpdateContainerRequest& request) {
+    google::protobuf::FieldMask mask;
+    const v1::Container& given = request.container();
+    if (request.update_mask().paths_size() == 0) {
+        if (!given.display_name().empty()) mask.add_paths("display_name");
+        if (given.labels_size() > 0) mask.add_paths("labels");
+        if (given.has_material()) mask.add_paths("material");
+        if (given.has_load_targets()) mask.add_paths("load_targets");
+    }
+    for (const std::string& path : request.update_mask().paths()) {
+        if (path == "*") {
+            for (const char* setting : kSettings) mask.add_paths(setting);
+            continue;
+        }
+        if (!google::protobuf::util::FieldMaskUtil::GetFieldDescriptors(
+                v1::Container::descriptor(), path, nullptr)) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("update_mask: '", path, "' is no field of Container"));
+        }
+        const std::string top = path.substr(0, path.find('.'));
+        if (std::find(kSettings.begin(), kSettings.end(), top) != kSettings.end()) {
+            mask.add_paths(path);
+        }
+    }
+    if (mask.paths_size() == 0) {
+        return absl::InvalidArgumentError(
+            "update_mask: names nothing UpdateContainer changes (display_name, labels, material, "
+            "load_targets, or a field of the last two)");
+    }
+    return mask;
 }
 
 }  // namespace
@@ -102,6 +166,11 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
         return absl::InvalidArgumentError("opening: is required (corners or pixel_corners)");
     }
     SOILVOL_ASSIGN_OR_RETURN(const model::ModelConfig config, ModelConfigFor(request));
+    response->set_display_name(request.display_name());
+    *response->mutable_labels() = request.labels();
+    if (request.has_material()) *response->mutable_material() = request.material();
+    if (request.has_load_targets()) *response->mutable_load_targets() = request.load_targets();
+    SOILVOL_RETURN_IF_ERROR(CheckSettings(*response, ""));
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), "", record));
     Timer timer;
     absl::StatusOr<model::ContainerModel> model =
@@ -113,8 +182,40 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
     response->set_container_id(id);
     if (request.has_max_range_m()) response->set_max_range_m(request.max_range_m());
     *response->mutable_create_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
+    *response->mutable_update_time() = response->create_time();
     SOILVOL_RETURN_IF_ERROR(record.stop.Check("registration, before storing it"));
     return Store(create, id, response, model::EncodeModel(*model));
+}
+
+}  // namespace soilvol::server
+
+namespace soilvol::server {
+
+absl::Status SoilVolumeHandlers::UpdateContainer(const v1::UpdateContainerRequest& request,
+                                                 v1::Container* response, CallRecord& record) {
+    const std::string& id = request.container().container_id();
+    record.ids.push_back({"container", id});
+    SOILVOL_RETURN_IF_ERROR(ValidateId(id, "container.container_id"));
+    SOILVOL_ASSIGN_OR_RETURN(const google::protobuf::FieldMask mask, UpdateMaskOf(request));
+    absl::StatusOr<StoredEntry> entry = store_.Get(EntryKind::kContainer, id);
+    if (!entry.ok()) return Annotate(entry.status(), "container.container_id");
+    std::string_view model;
+    SOILVOL_RETURN_IF_ERROR(DecodeStoredRecord(entry->payload, response, &model));
+    if (response->etag().empty()) response->set_etag(EtagOf(entry->payload));
+    SOILVOL_RETURN_IF_ERROR(
+        CheckEtag(request.container().etag(), response->etag(), absl::StrCat("'", id, "'")));
+
+    google::protobuf::util::FieldMaskUtil::MergeOptions replace;
+    replace.set_replace_message_fields(true);  // "material" names the whole message
+    replace.set_replace_repeated_fields(true);  // and "labels" the whole map
+    google::protobuf::util::FieldMaskUtil::MergeMessageTo(request.container(), mask, replace,
+                                                          response);
+    SOILVOL_RETURN_IF_ERROR(CheckSettings(*response, "container."));
+    response->set_container_id(id);
+    response->set_etag(NewEtag());
+    *response->mutable_update_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
+    return Annotate(store_.Put(EntryKind::kContainer, id, EncodeStoredRecord(*response, model), true),
+                    "container.container_id");
 }
 
 }  // namespace soilvol::server

@@ -102,4 +102,39 @@ absl::Status CheckEtag(std::string_view expected, std::string_view current, std:
         "ETAG_MISMATCH");
 }
 
+absl::Status ValidateDisplayName(std::string_view name, std::string_view field) {
+    if (name.size() > 200) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(AbslView(field), ": at most 200 bytes (got ", name.size(), ")"));
+    }
+    for (const char c : name) {
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+            return absl::InvalidArgumentError(
+                absl::StrCat(AbslView(field), ": control characters are not allowed"));
+        }
+    }
+    return absl::OkStatus();
+}
+
+absl::Status ValidateLabel(std::string_view key, std::string_view value, std::string_view field) {
+    const auto allowed = [](char c, bool upper) {
+        return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '.' ||
+               c == '-' || (upper && c >= 'A' && c <= 'Z');
+    };
+    const bool key_ok = !key.empty() && key.size() <= 63 && key[0] >= 'a' && key[0] <= 'z' &&
+                        std::all_of(key.begin(), key.end(), [&](char c) { return allowed(c, false); });
+    if (!key_ok) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            AbslView(field), ": key '", AbslView(key.substr(0, 80)),
+            "' must be 1-63 of [a-z0-9_.-] starting with a letter"));
+    }
+    if (value.size() > 63 ||
+        !std::all_of(value.begin(), value.end(), [&](char c) { return allowed(c, true); })) {
+        return absl::InvalidArgumentError(absl::StrCat(AbslView(field), ": the value of '",
+                                                       AbslView(key),
+                                                       "' must be 0-63 of [A-Za-z0-9_.-]"));
+    }
+    return absl::OkStatus();
+}
+
 }  // namespace soilvol::server

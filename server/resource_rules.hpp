@@ -34,6 +34,15 @@ absl::Status ValidateRequestId(std::string_view request_id, std::string_view fie
 /// from `request_id` when there is one so that a retry lands on the same id.
 std::string ServerChosenId(std::string_view prefix, std::string_view request_id);
 
+/// A resource's display name: at most 200 bytes, no control characters.
+absl::Status ValidateDisplayName(std::string_view name, std::string_view field);
+
+inline constexpr int kMaxLabels = 64;
+
+/// One label, as Kubernetes has them: key 1-63 of [a-z0-9_.-] starting with a letter, value
+/// 0-63 of [A-Za-z0-9_.-]. InvalidArgument naming `field` and the key.
+absl::Status ValidateLabel(std::string_view key, std::string_view value, std::string_view field);
+
 /// A fresh etag for a new write (AIP-154): 16 random hex digits.
 std::string NewEtag();
 

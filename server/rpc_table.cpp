@@ -44,6 +44,7 @@ std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& h) {
         {"RegisterContainer", MakeRpc<&H::RegisterContainer>(h)},
         {"GetContainer", MakeRpc<&H::GetContainer>(h)},
         {"ListContainers", MakeRpc<&H::ListContainers>(h)},
+        {"UpdateContainer", MakeRpc<&H::UpdateContainer>(h)},
         {"DeleteContainer", MakeRpc<&H::DeleteContainer>(h)},
         {"EstimateVolume", MakeRpc<&H::EstimateVolume>(h)},
         {"GetServerInfo", MakeRpc<&H::GetServerInfo>(h)},

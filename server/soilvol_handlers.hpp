@@ -41,6 +41,8 @@ class SoilVolumeHandlers {
                               CallRecord& record);
     absl::Status ListContainers(const v1::ListContainersRequest& request,
                                 v1::ListContainersResponse* response, CallRecord& record);
+    absl::Status UpdateContainer(const v1::UpdateContainerRequest& request,
+                                 v1::Container* response, CallRecord& record);
     absl::Status DeleteContainer(const v1::DeleteContainerRequest& request,
                                  v1::DeleteContainerResponse* response, CallRecord& record);
 

@@ -67,6 +67,23 @@ class Cli(unittest.TestCase):
             self.assertAlmostEqual(est["massKg"], 1500 * est["volumeM3"], places=6)
             table = self.run_cli("containers", "get", "cli-box").stdout
             self.assertIn("cli-box", table)
+            # Settings change without a rescan; only the flags given are in the mask.
+            out = json.loads(self.run_cli(
+                "--json", "containers", "update", "cli-box", "--display-name", "Truck 9",
+                "--label", "site=north", "--material", "sand", "--density", "1600",
+                "--target-volume", f"{2 * truth}").stdout)
+            self.assertEqual((out["displayName"], out["labels"], out["material"]["name"]),
+                             ("Truck 9", {"site": "north"}, "sand"))
+            out = json.loads(self.run_cli("--json", "containers", "update", "cli-box",
+                                          "--density", "1700").stdout)
+            self.assertEqual((out["displayName"], out["material"]["name"],
+                              out["material"]["densityKgM3"]), ("Truck 9", "sand", 1700))
+            shown = self.run_cli("estimate", "--id", "cli-box", "--cloud", full).stdout
+            self.assertIn("underloaded", shown)
+            stale = self.run_cli("containers", "update", "cli-box", "--etag", "0" * 16,
+                                 "--display-name", "x", check=False)
+            self.assertEqual(stale.returncode, 1)
+            self.assertIn("ABORTED", stale.stderr)
             self.run_cli("containers", "delete", "cli-box")
             gone = self.run_cli("estimate", "--id", "cli-box", "--cloud", full, check=False)
             self.assertEqual(gone.returncode, 1)

@@ -17,6 +17,7 @@ from harness import (TIME_SCALE, Server, load_grpc, needs_own_server, server_met
 
 grpc, pb, pb_grpc = load_grpc()
 from google.rpc import error_details_pb2, status_pb2  # noqa: E402  (generated beside the stubs)
+from google.protobuf import field_mask_pb2  # noqa: E402
 
 # As in test_rest.py: the box is measured to within this share of its struck capacity.
 TOLERANCE_OF_STRUCK = 0.04
@@ -459,6 +460,102 @@ class GrpcFlow(unittest.TestCase):
             omit_heightmap=True), timeout=60)
         self.assertFalse(lean.HasField("heightmap"))
         self.assertEqual(lean.distribution, d)
+
+    def test_load_targets_give_each_estimate_its_status(self):
+        truth = truth_m3(0.5 * box_scene.DEPTH)
+        created = self.register(
+            "target-box", overwrite=True, display_name="Truck 7",
+            labels={"site": "north-pit"},
+            material=pb.Material(name="clay", density_kg_m3=1600, bulking_factor=1.25),
+            load_targets=pb.LoadTargets(volume_m3=truth, under_tolerance=0.1,
+                                        over_tolerance=0.1, carryback_m3=0.01))
+        self.assertEqual(created.display_name, "Truck 7")
+        self.assertEqual(dict(created.labels), {"site": "north-pit"})
+        self.assertEqual(created.update_time, created.create_time)
+        est = lambda fill: self.stub.EstimateVolume(pb.EstimateVolumeRequest(  # noqa: E731
+            container_id="target-box", scan=cloud(box_scene.encode_ply(
+                box_scene.box_scan(fill * box_scene.DEPTH, seed=5))), omit_heightmap=True),
+            timeout=60)
+        half = est(0.5)
+        self.assertEqual(half.load.status, pb.LOAD_STATUS_LOADED_OK)
+        self.assertAlmostEqual(half.load.target_ratio, half.volume_m3 / truth, places=9)
+        self.assertAlmostEqual(half.mass_kg, 1600 * half.volume_m3, places=6)
+        self.assertAlmostEqual(half.load.mass_uncertainty_kg, 1600 * half.uncertainty_m3,
+                               places=6)
+        self.assertAlmostEqual(half.load.bank_volume_m3, half.volume_m3 / 1.25, places=9)
+        self.assertGreater(half.load.status_probability, 0.9)
+        self.assertEqual(est(0.25).load.status, pb.LOAD_STATUS_UNDERLOADED)
+        self.assertEqual(est(0.7).load.status, pb.LOAD_STATUS_OVERLOADED)
+        empty = est(0.0)
+        self.assertEqual(empty.load.status, pb.LOAD_STATUS_EMPTY, empty.volume_m3)
+        self.assertGreaterEqual(empty.load.empty_threshold_m3, 2 * empty.uncertainty_m3)
+        # A payload target through the density: 0.5 of the struck volume in clay is light.
+        updated = self.stub.UpdateContainer(pb.UpdateContainerRequest(
+            container=pb.Container(container_id="target-box", etag=created.etag,
+                                   load_targets=pb.LoadTargets(payload_kg=2 * 1600 * truth))),
+            timeout=30)
+        self.assertNotEqual(updated.etag, created.etag)
+        self.assertEqual(updated.display_name, "Truck 7")  # not in the implied mask
+        self.assertEqual(updated.struck_capacity_m3, created.struck_capacity_m3)
+        self.assertGreaterEqual(updated.update_time.ToNanoseconds(),
+                                created.create_time.ToNanoseconds())
+        self.assertEqual(est(0.5).load.status, pb.LOAD_STATUS_UNDERLOADED)
+        # The request's density replaces the material's for one scan.
+        heavy = self.stub.EstimateVolume(pb.EstimateVolumeRequest(
+            container_id="target-box", material_density_kg_m3=3600, omit_heightmap=True,
+            scan=cloud(box_scene.encode_ply(box_scene.box_scan(0.5 * box_scene.DEPTH, seed=5)))),
+            timeout=60)
+        self.assertEqual(heavy.load.status, pb.LOAD_STATUS_OVERLOADED)
+
+    def test_update_container_follows_aip_134(self):
+        created = self.register("update-box", overwrite=True, display_name="Bucket",
+                                labels={"a": "1", "b": "2"},
+                                material=pb.Material(name="sand", density_kg_m3=1500))
+        update = lambda mask, **fields: self.stub.UpdateContainer(  # noqa: E731
+            pb.UpdateContainerRequest(
+                container=pb.Container(container_id="update-box", **fields),
+                update_mask=field_mask_pb2.FieldMask(paths=mask)), timeout=30)
+        # A path inside material keeps its other fields; labels are replaced whole.
+        got = update(["material.density_kg_m3", "labels"],
+                     material=pb.Material(density_kg_m3=1700), labels={"c": "3"})
+        self.assertEqual(got.material.name, "sand")
+        self.assertEqual(got.material.density_kg_m3, 1700)
+        self.assertEqual(dict(got.labels), {"c": "3"})
+        self.assertEqual(got.display_name, "Bucket")
+        # A masked field that the message leaves unset is cleared.
+        got = update(["display_name"])
+        self.assertEqual(got.display_name, "")
+        self.assertEqual(self.stub.GetContainer(pb.GetContainerRequest(
+            container_id="update-box"), timeout=30), got)
+        # "*" replaces every setting.
+        got = update(["*"], display_name="B2")
+        self.assertEqual((got.display_name, len(got.labels), got.HasField("material")),
+                         ("B2", 0, False))
+        self.assertEqual(got.struck_capacity_m3, created.struck_capacity_m3)
+        self.assert_code(lambda: update(["struck_capacity_m3"]), CODE.INVALID_ARGUMENT,
+                         "update_mask", "names nothing")
+        # Output-only fields in a mask are ignored (a client sends back what it read).
+        got = update(["display_name", "struck_capacity_m3", "etag"], display_name="B3",
+                     struck_capacity_m3=99)
+        self.assertEqual(got.display_name, "B3")
+        self.assertEqual(got.struck_capacity_m3, created.struck_capacity_m3)
+        self.assert_code(lambda: update(["material.colour"]), CODE.INVALID_ARGUMENT,
+                         "update_mask", "no field")
+        self.assert_code(lambda: update([]), CODE.INVALID_ARGUMENT, "update_mask")
+        self.assert_code(lambda: update(["material"], material=pb.Material(density_kg_m3=-1)),
+                         CODE.INVALID_ARGUMENT, "container.material.density_kg_m3")
+        self.assert_code(lambda: update(["load_targets"],
+                                        load_targets=pb.LoadTargets(payload_kg=1000)),
+                         CODE.INVALID_ARGUMENT, "container.load_targets.payload_kg")
+        self.assert_code(lambda: update(["labels"], labels={"Bad Key": "x"}),
+                         CODE.INVALID_ARGUMENT, "container.labels")
+        self.assert_code(lambda: update(["display_name"], etag="0000000000000000"),
+                         CODE.ABORTED, "etag")
+        self.assert_code(lambda: self.stub.UpdateContainer(pb.UpdateContainerRequest(
+            container=pb.Container(container_id="no-such-box", display_name="x")), timeout=30),
+            CODE.NOT_FOUND, "container.container_id")
+        self.assert_code(lambda: self.register("bad-labels", labels={"k": "a b"}),
+                         CODE.INVALID_ARGUMENT, "labels")
 
     def test_every_rpc_of_the_service_is_served(self):
         service = pb.DESCRIPTOR.services_by_name["SoilVolume"]

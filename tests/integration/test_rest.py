@@ -231,6 +231,52 @@ class RestFlow(unittest.TestCase):
         self.assertEqual(status, 200, container)
         self.assertEqual(container["containerId"], "future-box")
 
+    def test_patch_updates_what_the_body_sets(self):
+        status, created = self.register(
+            "patch-box", overwrite=True, displayName="Loader 3",
+            material={"name": "gravel", "densityKgM3": 1700},
+            loadTargets={"volumeM3": 0.1, "carrybackM3": 0.005})
+        self.assertEqual(status, 200, created)
+        # grpc-gateway's rule: without updateMask, the mask is the fields the body sets, into
+        # nested objects (material.density_kg_m3 keeps material.name).
+        status, got = self.server.rest("PATCH", "/v1/containers/patch-box",
+                                       {"material": {"densityKgM3": 1900}, "labels": {"k": "v"}})
+        self.assertEqual(status, 200, got)
+        self.assertEqual((got["material"]["name"], got["material"]["densityKgM3"]),
+                         ("gravel", 1900))
+        self.assertEqual(got["labels"], {"k": "v"})
+        self.assertEqual(got["displayName"], "Loader 3")
+        self.assertEqual(got["loadTargets"], created["loadTargets"])
+        # An explicit mask in the query: a masked field the body leaves out is cleared.
+        status, got = self.server.rest("PATCH", "/v1/containers/patch-box?updateMask=displayName,labels",
+                                       {"displayName": "L3"})
+        self.assertEqual(status, 200, got)
+        self.assertEqual(got["displayName"], "L3")
+        self.assertEqual(got.get("labels", {}), {})
+        status, got = self.server.rest("PATCH", "/v1/containers/patch-box",
+                                       {"etag": "0123456789abcdef", "displayName": "x"})
+        self.assertEqual(status, 409, got)
+        status, got = self.server.rest("PATCH", "/v1/containers/patch-box?update_mask=depthM", {})
+        self.assertEqual(status, 400, got)
+        self.assertIn("update_mask: names nothing", got["message"])
+        # What GET returned, sent back whole with one change: output-only fields are ignored.
+        status, whole = self.server.rest("GET", "/v1/containers/patch-box")
+        whole["displayName"] = "L4"
+        status, got = self.server.rest("PATCH", "/v1/containers/patch-box", whole)
+        self.assertEqual(status, 200, got)
+        self.assertEqual(got["displayName"], "L4")
+        self.assertNotEqual(got["etag"], whole["etag"])
+        status, got = self.server.rest("PATCH", "/v1/containers/patch-box",
+                                       {"loadTargets": {"payloadKg": 1e9}})
+        self.assertEqual(status, 200, got)  # payload with the stored density
+        status, got = self.server.rest("PATCH", "/v1/containers/patch-box", {"material": None})
+        self.assertEqual(status, 400, got)  # null clears: a payload target without a density
+        self.assertIn("container.load_targets.payload_kg", got["message"])
+        status, est = self.estimate("patch-box", 0.1)
+        self.assertEqual(status, 200, est)
+        self.assertEqual(est["load"]["status"], "LOAD_STATUS_UNDERLOADED")
+        self.assertAlmostEqual(est["massKg"], 1900 * est["volumeM3"], delta=1e-6)
+
     def test_lists_page_with_opaque_tokens(self):
         for i in range(5):
             status, body = self.server.rest("POST", "/v1/calibrations", {

@@ -34,6 +34,7 @@ TEST(HttpRoutes, AnnotationsGiveTheDocumentedContract) {
         "GET /v1/containers/{container_id} GetContainer",
         "GET /v1/containers ListContainers",
         "DELETE /v1/containers/{container_id} DeleteContainer",
+        "PATCH /v1/containers/{container.container_id} UpdateContainer",
         "POST /v1/containers/{container_id}:estimate EstimateVolume",
         "GET /v1/info GetServerInfo",
     };
@@ -105,6 +106,34 @@ TEST_F(BindRequestTest, JsonBodiesIgnoreUnknownFieldsAndRefuseQueryParameters) {
     const absl::Status status =
         Bind("RegisterContainer", "overwrite=true", "application/json", "{}", &request);
     EXPECT_TRUE(absl::IsInvalidArgument(status));
+}
+
+TEST_F(BindRequestTest, PatchBodyIsTheResourceAndItsFieldsTheMask) {
+    const std::vector<HttpRoute>& routes = routes_;
+    const absl::StatusOr<RouteMatch> match =
+        MatchRoute(routes, "PATCH", "/v1/containers/truck%2D7");
+    ASSERT_TRUE(match.ok()) << match.status();
+    v1::UpdateContainerRequest request;
+    std::string body =
+        R"({"displayName": "T7", "material": {"densityKgM3": 1800, "name": "clay"},
+            "labels": {"a": "b"}, "loadTargets": null, "unknownField": 1})";
+    ASSERT_TRUE(BindRequest(*match->route, match->fields, "", "application/json", body, &request)
+                    .ok());
+    EXPECT_EQ(request.container().container_id(), "truck-7");
+    EXPECT_EQ(request.container().display_name(), "T7");
+    EXPECT_EQ(request.container().material().density_kg_m3(), 1800.0);
+    const std::set<std::string> paths(request.update_mask().paths().begin(),
+                                      request.update_mask().paths().end());
+    EXPECT_EQ(paths, (std::set<std::string>{"display_name", "material.density_kg_m3",
+                                            "material.name", "labels", "load_targets"}));
+    // A mask in the query replaces the derived one, bare or quoted.
+    v1::UpdateContainerRequest masked;
+    body = R"({"displayName": "T7"})";
+    ASSERT_TRUE(BindRequest(*match->route, match->fields, "updateMask=displayName,labels",
+                            "application/json", body, &masked)
+                    .ok());
+    EXPECT_EQ(masked.update_mask().paths_size(), 2);
+    EXPECT_EQ(masked.update_mask().paths(1), "labels");
 }
 
 TEST_F(BindRequestTest, BinaryBodyIsTheCloudAndTheQueryTheRest) {

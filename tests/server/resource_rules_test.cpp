@@ -96,5 +96,23 @@ TEST(ResourceRules, Etags) {
     EXPECT_EQ(FieldOf(stale.message()), "etag");
 }
 
+TEST(ResourceRules, DisplayNamesAndLabels) {
+    EXPECT_TRUE(ValidateDisplayName("Truck 7 \xC3\xA9", "display_name").ok());
+    EXPECT_TRUE(ValidateDisplayName("", "display_name").ok());
+    EXPECT_EQ(FieldOf(ValidateDisplayName(std::string(201, 'a'), "display_name").message()),
+              "display_name");
+    EXPECT_FALSE(ValidateDisplayName("a\nb", "display_name").ok());
+    EXPECT_TRUE(ValidateLabel("site", "north-pit_2", "labels").ok());
+    EXPECT_TRUE(ValidateLabel("fleet.kind", "", "labels").ok());
+    for (const std::string& bad_key : std::vector<std::string>{"", "Site", "1st", "a b", std::string(64, 'a')}) {
+        const absl::Status status = ValidateLabel(bad_key, "v", "labels");
+        EXPECT_TRUE(absl::IsInvalidArgument(status)) << bad_key;
+        EXPECT_EQ(FieldOf(status.message()), "labels") << status.message();
+    }
+    for (const std::string& bad_value : std::vector<std::string>{"a b", "x/y", std::string(64, 'v')}) {
+        EXPECT_TRUE(absl::IsInvalidArgument(ValidateLabel("k", bad_value, "labels"))) << bad_value;
+    }
+}
+
 }  // namespace
 }  // namespace soilvol::server
