@@ -11,7 +11,7 @@ packages=(
     libeigen3-dev libabsl-dev libpcl-dev libnanoflann-dev liblzf-dev libcli11-dev
     libopencv-dev opencv-doc
     libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc grpc-proto
-    libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev
+    libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev libsqlite3-dev libpqxx-dev
     golang-github-gogo-googleapis-dev golang-grpc-gateway
     python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
@@ -22,7 +22,7 @@ for group in "$@"; do
         fuzz) packages+=(clang libfuzzer-14-dev libomp-14-dev) ;;
         test)
             packages+=(golang-go golang-google-grpc-dev golang-google-genproto-dev
-                golang-google-protobuf-dev protoc-gen-go protoc-gen-go-grpc chromium)
+                golang-google-protobuf-dev protoc-gen-go protoc-gen-go-grpc chromium postgresql)
             ;;
         *)
             echo "install-deps: unknown group '$group' (fuzz, test)" >&2

@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 12> kMethodScopes = {{
+constexpr std::array<MethodScope, 14> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -32,6 +32,8 @@ constexpr std::array<MethodScope, 12> kMethodScopes = {{
     {"ListContainers", Scope::kRead},
     {"UpdateContainer", Scope::kAdmin},
     {"DeleteContainer", Scope::kAdmin},
+    {"GetEstimate", Scope::kRead},
+    {"ListEstimates", Scope::kRead},
     {"EstimateVolume", Scope::kEstimate},
     {"StreamEstimates", Scope::kEstimate},
     {"GetServerInfo", Scope::kRead},

@@ -63,7 +63,7 @@ absl::Status SoilVolumeHandlers::Calibrate(const v1::CalibrateRequest& request,
 
     ToProto(*calibration, response);
     response->set_calibration_id(id);
-    *response->mutable_create_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
+    *response->mutable_create_time() = NowTimestamp();
     SOILVOL_RETURN_IF_ERROR(record.stop.Check("calibration, before storing it"));
     // The message is the whole record: ToStereoCalibration rebuilds the rig from it.
     return Store(create, id, response, {});

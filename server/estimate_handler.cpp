@@ -110,7 +110,8 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
         RunEstimate(*container, scan, config, response->mutable_timings(), record.stop));
 
     ToProto(estimate, response);
-    if (!request.omit_heightmap()) ToProto(estimate.volume, response->mutable_heightmap());
+    v1::Heightmap heightmap;
+    ToProto(estimate.volume, &heightmap);
     response->set_container_id(request.container_id());
     response->set_request_id(request.request_id());
     response->set_method(config.method == volume::Method::kPaper ? v1::ESTIMATION_METHOD_PAPER
@@ -120,6 +121,8 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
             response);
     RecordTimings(record, timer.Lap(), response->mutable_timings());
     record.volume_m3 = estimate.volume_m3;
+    SOILVOL_RETURN_IF_ERROR(RecordEstimate(request, heightmap, response));
+    if (!request.omit_heightmap()) *response->mutable_heightmap() = std::move(heightmap);
     return absl::OkStatus();
 }
 

@@ -43,6 +43,12 @@ class SoilVolumeService final : public v1::SoilVolume::CallbackService {
     grpc::ServerUnaryReactor* UpdateContainer(grpc::CallbackServerContext* context,
                                               const v1::UpdateContainerRequest* request,
                                               v1::Container* response) override;
+    grpc::ServerUnaryReactor* GetEstimate(grpc::CallbackServerContext* context,
+                                          const v1::GetEstimateRequest* request,
+                                          v1::Estimate* response) override;
+    grpc::ServerUnaryReactor* ListEstimates(grpc::CallbackServerContext* context,
+                                            const v1::ListEstimatesRequest* request,
+                                            v1::ListEstimatesResponse* response) override;
     grpc::ServerUnaryReactor* DeleteContainer(grpc::CallbackServerContext* context,
                                               const v1::DeleteContainerRequest* request,
                                               v1::DeleteContainerResponse* response) override;

@@ -32,6 +32,18 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
     app.add_option("--data-dir", o.data_dir, "Directory of container models and calibrations")
         ->envname("SOILVOL_DATA_DIR")
         ->capture_default_str();
+    app.add_option("--records-url", o.records_url,
+                   "Where estimate records go: empty = SQLite in the data directory, "
+                   "sqlite:<path>, postgres://user@host/db (replicas share it), or none")
+        ->envname("SOILVOL_RECORDS_URL");
+    app.add_option("--records-max-per-container", o.records_max_per_container,
+                   "Records kept per container (the newest)")
+        ->envname("SOILVOL_RECORDS_MAX_PER_CONTAINER")
+        ->capture_default_str();
+    app.add_option("--records-max-age-days", o.records_max_age_days,
+                   "Records older than this are removed")
+        ->envname("SOILVOL_RECORDS_MAX_AGE_DAYS")
+        ->capture_default_str();
     app.add_option("--workers", o.workers,
                    "Calls run at once (0 = one per CPU of the cgroup limit); each gets 2 x CPUs / "
                    "workers threads, at most the CPUs")
@@ -164,6 +176,7 @@ int main(int argc, char** argv) {
          {"workers", resolved.workers},
          {"threads_per_call", soilvol::server::ThreadsPerCall(resolved.cpus, resolved.workers)},
          {"max_queue", resolved.max_queue},
+         {"records", (*server)->records_kind()},
          {"version", soilvol::GetBuildInfo().version},
          {"revision", soilvol::GetBuildInfo().revision}});
     std::thread waiter([&server, &signals] {

@@ -44,6 +44,12 @@ absl::Status ValidateOptions(const ServerOptions& o) {
     if (absl::Status s = ValidateAddress(o.grpc_address, "grpc-address"); !s.ok()) return s;
     if (absl::Status s = ValidateAddress(o.http_address, "http-address"); !s.ok()) return s;
     if (o.data_dir.empty()) return Invalid("data-dir", "must not be empty");
+    if (o.records_max_per_container < 1) {
+        return Invalid("records-max-per-container", "must be at least 1");
+    }
+    if (!(o.records_max_age_days > 0.0 && o.records_max_age_days <= 36500.0)) {
+        return Invalid("records-max-age-days", "must be in (0, 36500]");
+    }
     if (o.workers < 0 || o.workers > 256) return Invalid("workers", "must be in [0, 256]");
     if (o.max_queue < 0 || o.max_queue > 100000) {
         return Invalid("max-queue", "must be in [0, 100000]");

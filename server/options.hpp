@@ -15,6 +15,10 @@ struct ServerOptions {
     std::string grpc_address = "127.0.0.1:50051";
     std::string http_address = "127.0.0.1:8080";  ///< REST gateway, health and metrics
     std::string data_dir = "./data";              ///< model store
+    /// Estimate records: "" = SQLite in data_dir, sqlite:<path>, postgres://..., or "none".
+    std::string records_url;
+    long long records_max_per_container = 10000;  ///< retention: the newest this many ...
+    double records_max_age_days = 90.0;           ///< ... and none older
     int workers = 0;    ///< engine threads; 0 = one per CPU available (affinity, cgroup limit)
     int max_queue = 0;  ///< requests waiting for a worker; 0 = 4 x workers
     int max_message_mb = 64;  ///< largest gRPC message; REST bodies may be 4/3 larger (base64)

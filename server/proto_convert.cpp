@@ -1,9 +1,11 @@
 #include "server/proto_convert.hpp"
 
 #include <Eigen/Geometry>
+#include <chrono>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "google/protobuf/util/time_util.h"
 #include "core/common/status_macros.hpp"
 #include "core/volume/load_distribution.hpp"
 
@@ -292,6 +294,13 @@ void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeRespons
 }  // namespace soilvol::server
 
 namespace soilvol::server {
+
+google::protobuf::Timestamp NowTimestamp() {
+    const auto micros = std::chrono::duration_cast<std::chrono::microseconds>(
+                            std::chrono::system_clock::now().time_since_epoch())
+                            .count();
+    return google::protobuf::util::TimeUtil::MicrosecondsToTimestamp(micros);
+}
 
 absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material,
                                       const v1::LoadTargets& targets) {

@@ -35,6 +35,10 @@ struct LoadRules {
 absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material,
                                       const v1::LoadTargets& targets);
 
+/// The time now to the microsecond (Debian's protobuf TimeUtil::GetCurrentTime() has whole
+/// seconds only, which orders nothing within a second).
+google::protobuf::Timestamp NowTimestamp();
+
 /// Core -> proto.
 void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto);
 void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto);

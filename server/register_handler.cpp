@@ -181,7 +181,7 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
     ToProto(*model, response);
     response->set_container_id(id);
     if (request.has_max_range_m()) response->set_max_range_m(request.max_range_m());
-    *response->mutable_create_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
+    *response->mutable_create_time() = NowTimestamp();
     *response->mutable_update_time() = response->create_time();
     SOILVOL_RETURN_IF_ERROR(record.stop.Check("registration, before storing it"));
     return Store(create, id, response, model::EncodeModel(*model));
@@ -213,7 +213,7 @@ absl::Status SoilVolumeHandlers::UpdateContainer(const v1::UpdateContainerReques
     SOILVOL_RETURN_IF_ERROR(CheckSettings(*response, "container."));
     response->set_container_id(id);
     response->set_etag(NewEtag());
-    *response->mutable_update_time() = google::protobuf::util::TimeUtil::GetCurrentTime();
+    *response->mutable_update_time() = NowTimestamp();
     return Annotate(store_.Put(EntryKind::kContainer, id, EncodeStoredRecord(*response, model), true),
                     "container.container_id");
 }

@@ -6,6 +6,7 @@
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "server/status_map.hpp"
@@ -16,6 +17,7 @@ namespace soilvol::server {
 namespace {
 
 constexpr std::string_view kTokenPrefix = "after:";
+constexpr std::string_view kRecordTokenPrefix = "before:";
 constexpr std::size_t kMaxRequestId = 128;
 
 std::uint64_t Fnv1a(std::string_view bytes) {
@@ -34,14 +36,19 @@ std::uint64_t RandomBits() {
 
 }  // namespace
 
-absl::StatusOr<Page> PageOf(const std::vector<std::string>& sorted_ids, int page_size,
-                            std::string_view page_token) {
+absl::StatusOr<int> PageSizeOf(int page_size) {
     if (page_size < 0) {
         return absl::InvalidArgumentError(
             absl::StrCat("page_size: must not be negative (got ", page_size, ")"));
     }
-    const auto size = static_cast<std::size_t>(page_size == 0 ? kDefaultPageSize
-                                                              : std::min(page_size, kMaxPageSize));
+    return page_size == 0 ? kDefaultPageSize : std::min(page_size, kMaxPageSize);
+}
+
+absl::StatusOr<Page> PageOf(const std::vector<std::string>& sorted_ids, int page_size,
+                            std::string_view page_token) {
+    absl::StatusOr<int> checked = PageSizeOf(page_size);
+    if (!checked.ok()) return checked.status();
+    const auto size = static_cast<std::size_t>(*checked);
     auto first = sorted_ids.begin();
     if (!page_token.empty()) {
         std::string decoded;
@@ -135,6 +142,34 @@ absl::Status ValidateLabel(std::string_view key, std::string_view value, std::st
                                                        "' must be 0-63 of [A-Za-z0-9_.-]"));
     }
     return absl::OkStatus();
+}
+
+std::string RecordPageToken(std::int64_t last_id) {
+    return absl::WebSafeBase64Escape(absl::StrCat(AbslView(kRecordTokenPrefix), last_id));
+}
+
+absl::StatusOr<std::optional<std::int64_t>> ParseRecordPageToken(std::string_view page_token) {
+    if (page_token.empty()) return std::nullopt;
+    std::string decoded;
+    std::int64_t id = 0;
+    if (page_token.size() > 64 || !absl::WebSafeBase64Unescape(AbslView(page_token), &decoded) ||
+        !absl::StartsWith(decoded, AbslView(kRecordTokenPrefix)) ||
+        !absl::SimpleAtoi(absl::string_view(decoded).substr(kRecordTokenPrefix.size()), &id) ||
+        id <= 0) {
+        return absl::InvalidArgumentError(
+            "page_token: is not a next_page_token of this list; start again without one");
+    }
+    return id;
+}
+
+absl::StatusOr<std::int64_t> ParseRecordId(std::string_view text, std::string_view field) {
+    std::int64_t id = 0;
+    if (text.empty() || text.size() > 19 || text.front() == '+' || text.front() == '-' ||
+        !absl::SimpleAtoi(AbslView(text), &id) || id <= 0) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            AbslView(field), ": '", AbslView(text.substr(0, 40)), "' is not an estimate id (a positive integer)"));
+    }
+    return id;
 }
 
 }  // namespace soilvol::server

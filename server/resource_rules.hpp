@@ -1,6 +1,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -26,6 +28,17 @@ inline constexpr int kMaxPageSize = 1000;
 /// Entries created or deleted between pages neither repeat nor shift the others.
 absl::StatusOr<Page> PageOf(const std::vector<std::string>& sorted_ids, int page_size,
                             std::string_view page_token);
+
+/// A page size as AIP-158 has it: 0 means kDefaultPageSize, more than kMaxPageSize means
+/// kMaxPageSize; InvalidArgument naming page_size when negative.
+absl::StatusOr<int> PageSizeOf(int page_size);
+
+/// Pages of estimate records, newest first: the token names the last id served.
+std::string RecordPageToken(std::int64_t last_id);
+/// nullopt for "" (the first page); InvalidArgument naming page_token for one not made here.
+absl::StatusOr<std::optional<std::int64_t>> ParseRecordPageToken(std::string_view page_token);
+/// An estimate id: a positive decimal integer; InvalidArgument naming `field` otherwise.
+absl::StatusOr<std::int64_t> ParseRecordId(std::string_view text, std::string_view field);
 
 /// AIP-155: "" (none) or 1-128 characters of [A-Za-z0-9._:-] (a UUID fits).
 absl::Status ValidateRequestId(std::string_view request_id, std::string_view field);

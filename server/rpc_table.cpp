@@ -45,6 +45,8 @@ std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& h) {
         {"GetContainer", MakeRpc<&H::GetContainer>(h)},
         {"ListContainers", MakeRpc<&H::ListContainers>(h)},
         {"UpdateContainer", MakeRpc<&H::UpdateContainer>(h)},
+        {"GetEstimate", MakeRpc<&H::GetEstimate>(h)},
+        {"ListEstimates", MakeRpc<&H::ListEstimates>(h)},
         {"DeleteContainer", MakeRpc<&H::DeleteContainer>(h)},
         {"EstimateVolume", MakeRpc<&H::EstimateVolume>(h)},
         {"GetServerInfo", MakeRpc<&H::GetServerInfo>(h)},

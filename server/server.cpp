@@ -20,6 +20,7 @@
 #include "server/http_gateway.hpp"
 #include "server/logging.hpp"
 #include "server/metrics.hpp"
+#include "server/records/recorder.hpp"
 #include "server/rpc_table.hpp"
 #include "server/soilvol_handlers.hpp"
 #include "server/store/entry_store.hpp"
@@ -31,6 +32,8 @@ struct Server::Parts {
     ServerOptions options;
     std::unique_ptr<Authenticator> authenticator;
     std::unique_ptr<EntryStore> store;
+    std::unique_ptr<RecordStore> records;
+    std::unique_ptr<EstimateRecorder> recorder;  // after records: stops before it closes
     Metrics metrics;
     std::unique_ptr<WorkerPool> pool;
     std::unique_ptr<Dispatcher> dispatcher;
@@ -159,7 +162,15 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
         [call_threads] { pipeline::SetCallThreads(call_threads); });
     p.metrics.SetWorkers(o.workers, o.max_queue);
     p.dispatcher = std::make_unique<Dispatcher>(*p.pool, p.metrics, *p.authenticator);
-    p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store);
+    if (o.records_url != "none") {
+        SOILVOL_ASSIGN_OR_RETURN(p.records, OpenRecordStore(o.records_url, o.data_dir));
+        EstimateRecorder::Config recording;
+        recording.retention.max_per_container = o.records_max_per_container;
+        recording.retention.max_age =
+            std::chrono::seconds(static_cast<long long>(o.records_max_age_days * 86400.0));
+        p.recorder = std::make_unique<EstimateRecorder>(*p.records, recording);
+    }
+    p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get());
     p.rpcs = MakeRpcTable(*p.handlers);
     SoilVolumeHandlers* handlers = p.handlers.get();
     p.health = std::make_unique<HealthService>([handlers] { return handlers->CheckReady().ok(); });
@@ -222,6 +233,10 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
 int Server::grpc_port() const { return parts_->grpc_port; }
 int Server::http_port() const { return parts_->http_port; }
 int Server::probe_port() const { return parts_->gateway->probe_port(); }
+
+const char* Server::records_kind() const {
+    return parts_->records != nullptr ? parts_->records->kind() : "none";
+}
 
 void Server::Shutdown() {
     Parts& p = *parts_;

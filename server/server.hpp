@@ -20,6 +20,8 @@ class Server {
     int grpc_port() const;
     int http_port() const;
     int probe_port() const;  ///< 0 without --probe-address
+    /// "sqlite", "postgresql" or "none": where estimate records go.
+    const char* records_kind() const;
     /// Graceful stop: health goes NOT_SERVING, no new calls are accepted, calls in flight get
     /// up to shutdown_grace_s to finish. Safe to call from any thread, more than once.
     void Shutdown();

@@ -53,9 +53,10 @@ absl::Status ListEntries(const EntryStore& store, EntryKind kind, const Request&
 
 }  // namespace
 
-SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store)
+SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder)
     : store_(store),
-      start_time_(google::protobuf::util::TimeUtil::GetCurrentTime()),
+      recorder_(recorder),
+      start_time_(NowTimestamp()),
       calibrations_(store, &DecodeCalibration),
       containers_(store, &DecodeContainer) {}
 

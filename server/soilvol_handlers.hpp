@@ -12,6 +12,7 @@
 #include "core/pipeline/registration.hpp"
 #include "core/stereo/reconstructor.hpp"
 #include "server/dispatcher.hpp"
+#include "server/records/recorder.hpp"
 #include "server/store/entry_cache.hpp"
 #include "server/store/entry_store.hpp"
 #include "soilvol/v1/soilvol.pb.h"
@@ -24,7 +25,9 @@ namespace soilvol::server {
 /// errors are absl statuses whose messages name the request field at fault.
 class SoilVolumeHandlers {
   public:
-    explicit SoilVolumeHandlers(EntryStore& store);
+    /// `recorder` keeps estimate records; null: records are off (estimates are not kept, and
+    /// Get/ListEstimates fail with FAILED_PRECONDITION).
+    SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder);
 
     absl::Status Calibrate(const v1::CalibrateRequest& request, v1::Calibration* response,
                            CallRecord& record);
@@ -48,6 +51,11 @@ class SoilVolumeHandlers {
 
     absl::Status EstimateVolume(const v1::EstimateVolumeRequest& request,
                                 v1::EstimateVolumeResponse* response, CallRecord& record);
+
+    absl::Status GetEstimate(const v1::GetEstimateRequest& request, v1::Estimate* response,
+                             CallRecord& record);
+    absl::Status ListEstimates(const v1::ListEstimatesRequest& request,
+                               v1::ListEstimatesResponse* response, CallRecord& record);
 
     absl::Status GetServerInfo(const v1::GetServerInfoRequest& request, v1::ServerInfo* response,
                                CallRecord& record);
@@ -124,10 +132,18 @@ class SoilVolumeHandlers {
     absl::Status DeleteEntry(EntryKind kind, const std::string& id, const char* field,
                              const std::string& etag);
 
+    /// Keeps the record of an answered estimate (unless the request opts out) and sets its id.
+    absl::Status RecordEstimate(const v1::EstimateVolumeRequest& request,
+                                const v1::Heightmap& heightmap,
+                                v1::EstimateVolumeResponse* response);
+    /// The recorder, or FailedPrecondition when records are off.
+    absl::StatusOr<EstimateRecorder*> Recorder() const;
+
     static absl::StatusOr<CalibrationEntry> DecodeCalibration(const StoredEntry& entry);
     static absl::StatusOr<ContainerEntry> DecodeContainer(const StoredEntry& entry);
 
     EntryStore& store_;
+    EstimateRecorder* const recorder_;
     const google::protobuf::Timestamp start_time_;
     mutable EntryCache<CalibrationEntry> calibrations_;
     mutable EntryCache<ContainerEntry> containers_;

@@ -35,6 +35,8 @@ TEST(HttpRoutes, AnnotationsGiveTheDocumentedContract) {
         "GET /v1/containers ListContainers",
         "DELETE /v1/containers/{container_id} DeleteContainer",
         "PATCH /v1/containers/{container.container_id} UpdateContainer",
+        "GET /v1/containers/{container_id}/estimates ListEstimates",
+        "GET /v1/containers/{container_id}/estimates/{estimate_id} GetEstimate",
         "POST /v1/containers/{container_id}:estimate EstimateVolume",
         "GET /v1/info GetServerInfo",
     };

@@ -1,0 +1,172 @@
+#include "server/records/estimate_feed.hpp"
+
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+
+namespace soilvol::server {
+
+class EstimateFeed::Watch {
+  public:
+    Watch(Spec spec, Deliver deliver, Ended ended)
+        : spec_(std::move(spec)), deliver_(std::move(deliver)), ended_(std::move(ended)) {}
+
+    const Spec spec_;
+    std::int64_t cursor_ = 0;  ///< every matching record up to it was delivered
+    std::mutex call_mutex_;    ///< held while a callback runs, so Stop can wait it out
+    bool live_ = true;         ///< under call_mutex_
+
+    /// Delivers unless stopped; false when the watch is (now) over.
+    bool Offer(const EstimateRecord& record) {
+        std::lock_guard<std::mutex> lock(call_mutex_);
+        if (!live_) return false;
+        if (!spec_.container_id.empty() && record.container_id != spec_.container_id) return true;
+        if (deliver_(record)) return true;
+        live_ = false;
+        ended_(absl::ResourceExhaustedError(
+            absl::StrCat("the watch fell behind at estimate ", record.id,
+                         "; reconnect after the last id received")));
+        return false;
+    }
+    void Close(const absl::Status& status, bool notify) {
+        std::lock_guard<std::mutex> lock(call_mutex_);
+        if (!live_) return;
+        live_ = false;
+        if (notify) ended_(status);
+    }
+    bool live() {
+        std::lock_guard<std::mutex> lock(call_mutex_);
+        return live_;
+    }
+
+  private:
+    Deliver deliver_;
+    Ended ended_;
+};
+
+EstimateFeed::EstimateFeed(EstimateRecorder& recorder, Config config)
+    : recorder_(recorder), config_(config) {
+    RecordQuery newest;
+    newest.limit = 1;
+    newest.with_payload = false;
+    if (auto rows = recorder_.store().List(newest); rows.ok() && !rows->empty()) {
+        newest_ = rows->front().id;
+    }
+    thread_ = std::thread([this] { Run(); });
+}
+
+EstimateFeed::~EstimateFeed() {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        stopping_ = true;
+    }
+    thread_.join();
+}
+
+absl::StatusOr<std::shared_ptr<EstimateFeed::Watch>> EstimateFeed::Start(Spec spec,
+                                                                          Deliver deliver,
+                                                                          Ended ended) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return absl::UnavailableError("the server is shutting down");
+    if (watches_.size() >= config_.max_watches) {
+        return absl::ResourceExhaustedError(
+            absl::StrCat("at most ", config_.max_watches, " watches at once"));
+    }
+    auto watch = std::make_shared<Watch>(std::move(spec), std::move(deliver), std::move(ended));
+    // From now on unless told where to resume: the feed thread sets the cursor to the newest
+    // id it has handed out (0 marks "not yet placed").
+    watch->cursor_ = watch->spec_.after_id.value_or(-1);
+    watches_.push_back(watch);
+    return watch;
+}
+
+void EstimateFeed::Stop(const std::shared_ptr<Watch>& watch) {
+    watch->Close(absl::OkStatus(), false);
+    std::lock_guard<std::mutex> lock(mutex_);
+    watches_.erase(std::remove(watches_.begin(), watches_.end(), watch), watches_.end());
+}
+
+std::size_t EstimateFeed::watches() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return watches_.size();
+}
+
+void EstimateFeed::End(const std::shared_ptr<Watch>& watch, const absl::Status& status) {
+    watch->Close(status, true);
+    std::lock_guard<std::mutex> lock(mutex_);
+    watches_.erase(std::remove(watches_.begin(), watches_.end(), watch), watches_.end());
+}
+
+bool EstimateFeed::CatchUp(Watch& watch, std::int64_t upto) {
+    while (watch.cursor_ < upto) {
+        RecordQuery query;
+        query.container_id = watch.spec_.container_id;
+        query.after_id = watch.cursor_;
+        query.limit = config_.batch;
+        absl::StatusOr<std::vector<EstimateRecord>> rows = recorder_.store().List(query);
+        if (!rows.ok()) return true;  // the store is away: try again next round
+        for (const EstimateRecord& row : *rows) {
+            if (row.id > upto) break;
+            if (!watch.Offer(row)) return false;
+            watch.cursor_ = row.id;
+        }
+        if (static_cast<int>(rows->size()) < config_.batch || rows->back().id >= upto) {
+            watch.cursor_ = upto;
+        }
+    }
+    return true;
+}
+
+void EstimateFeed::Run() {
+    std::int64_t seen_local = 0;
+    while (true) {
+        seen_local = recorder_.WaitForNewer(seen_local, config_.poll);
+        std::vector<std::shared_ptr<Watch>> watches;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            if (stopping_) {
+                watches.swap(watches_);
+            } else {
+                watches = watches_;
+            }
+        }
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            if (stopping_) {
+                for (const auto& watch : watches) {
+                    watch->Close(absl::UnavailableError("the server is shutting down"), true);
+                }
+                return;
+            }
+        }
+        // What is new since the last round, every container at once.
+        std::vector<EstimateRecord> fresh;
+        RecordQuery query;
+        query.after_id = newest_;
+        query.limit = config_.batch;
+        if (auto rows = recorder_.store().List(query); rows.ok()) fresh = *std::move(rows);
+        const std::int64_t before = newest_;
+        if (!fresh.empty()) newest_ = fresh.back().id;
+        for (const auto& watch : watches) {
+            if (!watch->live()) continue;
+            if (watch->cursor_ < 0) watch->cursor_ = before;  // placed: from now on
+            // Behind (resumed from an old id): from the store first.
+            if (!CatchUp(*watch, before)) {
+                End(watch, absl::OkStatus());
+                continue;
+            }
+            for (const EstimateRecord& row : fresh) {
+                if (row.id <= watch->cursor_) continue;
+                if (!watch->Offer(row)) break;
+                watch->cursor_ = row.id;
+            }
+            if (!watch->live()) {
+                End(watch, absl::OkStatus());
+            } else {
+                watch->cursor_ = std::max(watch->cursor_, newest_);
+            }
+        }
+    }
+}
+
+}  // namespace soilvol::server

@@ -1,0 +1,70 @@
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/records/recorder.hpp"
+
+namespace soilvol::server {
+
+/// Live estimate records for watchers (WatchEstimates, the SSE route): one thread reads what
+/// is new - at once after this process commits, and every poll interval for what other
+/// replicas committed - and hands each record to the watches whose container it matches, in
+/// id order. A watch may start after a last-seen id: it first catches up from the store, so a
+/// reconnecting client loses nothing (ids increase in commit order, see RecordStore).
+class EstimateFeed {
+  public:
+    struct Config {
+        std::chrono::milliseconds poll{250};
+        std::size_t max_watches = 256;
+        int batch = 200;  ///< records read per query
+    };
+    /// Takes a record; false ends the watch (its client is gone or too slow).
+    using Deliver = std::function<bool(const EstimateRecord&)>;
+    /// Called once when the feed ends a watch: Unavailable at shutdown, the store's error, or
+    /// ResourceExhausted for a watch whose Deliver refused a record.
+    using Ended = std::function<void(const absl::Status&)>;
+    struct Spec {
+        std::string container_id;               ///< "" for every container
+        std::optional<std::int64_t> after_id;   ///< resume after it; none: from now on
+    };
+    class Watch;
+
+    EstimateFeed(EstimateRecorder& recorder, Config config);
+    /// Ends every watch (Unavailable) and stops the thread.
+    ~EstimateFeed();
+    EstimateFeed(const EstimateFeed&) = delete;
+    EstimateFeed& operator=(const EstimateFeed&) = delete;
+
+    /// A new watch; ResourceExhausted beyond max_watches. `deliver` and `ended` run on the
+    /// feed's thread.
+    absl::StatusOr<std::shared_ptr<Watch>> Start(Spec spec, Deliver deliver, Ended ended);
+    /// Ends `watch` without calling its `ended` (its client left). After it returns, the
+    /// watch's callbacks are not called again.
+    void Stop(const std::shared_ptr<Watch>& watch);
+
+    std::size_t watches() const;
+
+  private:
+    void Run();
+    /// Hands `watch` what it is owed up to `upto`: false when it ended.
+    bool CatchUp(Watch& watch, std::int64_t upto);
+    void End(const std::shared_ptr<Watch>& watch, const absl::Status& status);
+
+    EstimateRecorder& recorder_;
+    const Config config_;
+    mutable std::mutex mutex_;
+    std::vector<std::shared_ptr<Watch>> watches_;
+    bool stopping_ = false;
+    std::int64_t newest_ = 0;  ///< every record up to it was handed out (feed thread only)
+    std::thread thread_;
+};
+
+}  // namespace soilvol::server

@@ -1,0 +1,89 @@
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+
+namespace soilvol::server {
+
+/// One estimate as kept: the fields lists select and order by as columns, the API message
+/// (a serialized soilvol.v1.Estimate) as the payload.
+struct EstimateRecord {
+    std::int64_t id = 0;  ///< set by the store: increasing in the order records were committed
+    std::string container_id;
+    std::int64_t create_time_us = 0;  ///< since the Unix epoch
+    std::string request_id;
+    std::string payload;
+};
+
+/// Which records a List returns.
+struct RecordQuery {
+    std::string container_id;  ///< "" for every container
+    /// Newest first below this id (a page after the previous one), or - with after_id -
+    /// oldest first above it (a watch catching up). Neither: the newest first.
+    std::optional<std::int64_t> before_id;
+    std::optional<std::int64_t> after_id;
+    std::int64_t start_time_us = std::numeric_limits<std::int64_t>::min();  ///< inclusive
+    std::int64_t end_time_us = std::numeric_limits<std::int64_t>::max();    ///< exclusive
+    int limit = 100;
+    bool with_payload = true;
+};
+
+/// How long records stay: each container keeps its newest max_per_container, none older
+/// than max_age.
+struct RetentionPolicy {
+    std::int64_t max_per_container = 10000;
+    std::chrono::seconds max_age = std::chrono::hours(24 * 90);
+};
+
+/// Estimate records in a database shared by every replica that uses it. Thread-safe. Errors:
+/// Unavailable when the database cannot be reached or is busy beyond its timeout, DataLoss for
+/// a damaged one, NotFound from Get.
+class RecordStore {
+  public:
+    virtual ~RecordStore() = default;
+
+    /// Commits `records` in one transaction and sets their ids (in vector order). When it
+    /// returns OK the records are durable: they survive the process being killed, and (SQLite
+    /// synchronous=FULL; PostgreSQL's fsync) the machine losing power.
+    virtual absl::Status Append(std::vector<EstimateRecord>& records) = 0;
+
+    virtual absl::StatusOr<EstimateRecord> Get(const std::string& container_id,
+                                               std::int64_t id) = 0;
+
+    virtual absl::StatusOr<std::vector<EstimateRecord>> List(const RecordQuery& query) = 0;
+
+    /// Deletes what `policy` no longer keeps as of `now_us`; the number deleted.
+    virtual absl::StatusOr<std::int64_t> Prune(const RetentionPolicy& policy,
+                                               std::int64_t now_us) = 0;
+
+    /// "sqlite" or "postgresql", for logs and metrics.
+    virtual const char* kind() const = 0;
+};
+
+/// The store a --records-url names: "" for SQLite at <data_dir>/records.sqlite3,
+/// "sqlite:<path>" for another file, "postgres://..." or "postgresql://..." (libpq's URI) for
+/// PostgreSQL. Creates the schema when missing. InvalidArgument for another scheme;
+/// Unavailable (with the reason, the password left out) when it cannot be opened.
+absl::StatusOr<std::unique_ptr<RecordStore>> OpenRecordStore(const std::string& url,
+                                                             const std::filesystem::path& data_dir);
+
+/// PostgreSQL at `url` (libpq's URI; the schema is created when missing).
+absl::StatusOr<std::unique_ptr<RecordStore>> OpenPostgresRecordStore(const std::string& url);
+
+/// `url` with any password replaced by ***.
+std::string RedactedUrl(const std::string& url);
+
+/// SQLite in `path` (WAL, synchronous=FULL, busy timeout 5 s: several processes of one machine
+/// may share it; not over a network file system).
+absl::StatusOr<std::unique_ptr<RecordStore>> OpenSqliteRecordStore(
+    const std::filesystem::path& path);
+
+}  // namespace soilvol::server

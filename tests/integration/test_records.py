@@ -1,0 +1,245 @@
+"""Estimate records end to end: the same tests against SQLite (the default, in the data
+directory) and PostgreSQL (the server ctest starts, $SOILVOL_TEST_POSTGRES_URL; without it the
+PostgreSQL class is skipped, except under CI=true). Covers GetEstimate / ListEstimates over
+gRPC and REST, paging, time filters, skip_record, two replicas sharing one database, and that
+an answered estimate's record survives kill -9."""
+import os
+import signal
+import sys
+import threading
+import time
+import unittest
+import uuid
+
+sys.path.insert(0, os.path.dirname(__file__))
+import box_scene  # noqa: E402
+from harness import Server, load_grpc, needs_own_server  # noqa: E402
+
+grpc, pb, pb_grpc = load_grpc()
+from google.protobuf import timestamp_pb2  # noqa: E402
+
+CODE = grpc.StatusCode
+EMPTY = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
+
+
+def cloud(data):
+    return pb.Scan(cloud=pb.CloudScan(data=data))
+
+
+def postgres_url():
+    pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
+    return pattern.replace("{db}", "postgres") if pattern else ""
+
+
+class RecordsContract:
+    """The tests; a subclass gives records_args()."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.data_dir = None
+        cls.server = Server(args=["--workers", "2", *cls.records_args()]).start()
+        cls.channel = cls.server.channel(grpc)
+        cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
+        cls.prefix = "rec-" + uuid.uuid4().hex[:8]
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.channel.close()
+        cls.server.close()
+
+    def register(self, cid, stub=None):
+        return (stub or self.stub).RegisterContainer(pb.RegisterContainerRequest(
+            container_id=cid, scan=cloud(EMPTY), overwrite=True,
+            opening=pb.Opening(corners=[pb.Point3(x=x, y=y, z=z)
+                                        for x, y, z in box_scene.opening_corners()])),
+            timeout=60)
+
+    def estimate(self, cid, fill, stub=None, **extra):
+        scan = cloud(box_scene.encode_ply(box_scene.box_scan(fill, seed=3)))
+        return (stub or self.stub).EstimateVolume(
+            pb.EstimateVolumeRequest(container_id=cid, scan=scan, **extra), timeout=60)
+
+    def test_every_estimate_is_kept_and_read_back(self):
+        cid = self.prefix + "-a"
+        self.register(cid)
+        first = self.estimate(cid, 0.1, request_id="load-1")
+        self.assertTrue(first.estimate_id)
+        kept = self.stub.GetEstimate(pb.GetEstimateRequest(
+            container_id=cid, estimate_id=first.estimate_id), timeout=30)
+        self.assertEqual(kept.container_id, cid)
+        self.assertEqual(kept.request_id, "load-1")
+        self.assertEqual(kept.result, first)  # the answer as sent, heightmap included
+        self.assertGreater(len(kept.result.heightmap.heights_f32le), 0)
+        basic = self.stub.GetEstimate(pb.GetEstimateRequest(
+            container_id=cid, estimate_id=first.estimate_id, view=pb.ESTIMATE_VIEW_BASIC),
+            timeout=30)
+        self.assertFalse(basic.result.HasField("heightmap"))
+        self.assertEqual(basic.result.volume_m3, first.volume_m3)
+        # omit_heightmap shortens the answer, not the record; skip_record keeps nothing.
+        lean = self.estimate(cid, 0.2, omit_heightmap=True)
+        self.assertFalse(lean.HasField("heightmap"))
+        full = self.stub.GetEstimate(pb.GetEstimateRequest(
+            container_id=cid, estimate_id=lean.estimate_id), timeout=30)
+        self.assertGreater(len(full.result.heightmap.heights_f32le), 0)
+        skipped = self.estimate(cid, 0.3, skip_record=True)
+        self.assertEqual(skipped.estimate_id, "")
+        listed = self.stub.ListEstimates(pb.ListEstimatesRequest(container_id=cid), timeout=30)
+        self.assertEqual([e.estimate_id for e in listed.estimates],
+                         [lean.estimate_id, first.estimate_id])  # newest first
+        self.assertFalse(listed.estimates[0].result.HasField("heightmap"))  # BASIC by default
+        # REST: the same resources.
+        status, got = self.server.rest("GET", f"/v1/containers/{cid}/estimates/{first.estimate_id}")
+        self.assertEqual(status, 200, got)
+        self.assertEqual(got["estimateId"], first.estimate_id)
+        self.assertEqual(got["result"]["volumeM3"], first.volume_m3)
+        status, page = self.server.rest("GET", f"/v1/containers/{cid}/estimates?pageSize=1")
+        self.assertEqual(status, 200, page)
+        self.assertEqual(len(page["estimates"]), 1)
+        status, rest = self.server.rest(
+            "GET", f"/v1/containers/{cid}/estimates?pageSize=1&pageToken={page['nextPageToken']}")
+        self.assertEqual([e["estimateId"] for e in rest["estimates"]], [first.estimate_id])
+        self.assertEqual(rest.get("nextPageToken", ""), "")
+
+    def test_lists_filter_by_time_and_span_containers(self):
+        a, b = self.prefix + "-t1", self.prefix + "-t2"
+        self.register(a)
+        self.register(b)
+        early = self.estimate(a, 0.1)
+        time.sleep(0.05)
+        middle = self.stub.GetEstimate(pb.GetEstimateRequest(
+            container_id=a, estimate_id=early.estimate_id), timeout=30).create_time
+        time.sleep(0.05)
+        late = self.estimate(b, 0.1)
+        since = self.stub.ListEstimates(pb.ListEstimatesRequest(
+            container_id="-", start_time=timestamp_pb2.Timestamp(
+                seconds=middle.seconds, nanos=middle.nanos + 1000)), timeout=30)
+        ids = [e.estimate_id for e in since.estimates]
+        self.assertIn(late.estimate_id, ids)
+        self.assertNotIn(early.estimate_id, ids)
+        until = self.stub.ListEstimates(pb.ListEstimatesRequest(
+            container_id="-", end_time=timestamp_pb2.Timestamp(
+                seconds=middle.seconds, nanos=middle.nanos + 1000)), timeout=30)
+        ids = [e.estimate_id for e in until.estimates]
+        self.assertIn(early.estimate_id, ids)
+        self.assertNotIn(late.estimate_id, ids)
+        # Paging every container, 1 per page, meets both in order.
+        seen, token = [], ""
+        while True:
+            page = self.stub.ListEstimates(pb.ListEstimatesRequest(
+                container_id="-", page_size=1, page_token=token), timeout=30)
+            seen += [int(e.estimate_id) for e in page.estimates]
+            token = page.next_page_token
+            if not token:
+                break
+        self.assertEqual(seen, sorted(seen, reverse=True))
+        self.assertTrue({int(early.estimate_id), int(late.estimate_id)} <= set(seen))
+
+    def test_bad_requests_name_their_field(self):
+        cases = [
+            (pb.GetEstimateRequest(container_id="c", estimate_id="x1"), CODE.INVALID_ARGUMENT,
+             "estimate_id"),
+            (pb.GetEstimateRequest(container_id="c", estimate_id="-4"), CODE.INVALID_ARGUMENT,
+             "estimate_id"),
+            (pb.GetEstimateRequest(container_id="../c", estimate_id="1"), CODE.INVALID_ARGUMENT,
+             "container_id"),
+            (pb.GetEstimateRequest(container_id="c", estimate_id="999999999"), CODE.NOT_FOUND,
+             "estimate_id"),
+        ]
+        for request, code, field in cases:
+            with self.subTest(request=str(request)):
+                with self.assertRaises(grpc.RpcError) as ctx:
+                    self.stub.GetEstimate(request, timeout=30)
+                self.assertEqual(ctx.exception.code(), code, ctx.exception.details())
+                self.assertIn(field, ctx.exception.details())
+        for request, field in [
+                (pb.ListEstimatesRequest(container_id="-", page_token="bm9wZQ"), "page_token"),
+                (pb.ListEstimatesRequest(container_id="-", page_size=-1), "page_size"),
+                (pb.ListEstimatesRequest(container_id="-", start_time=timestamp_pb2.Timestamp(
+                    seconds=100), end_time=timestamp_pb2.Timestamp(seconds=50)), "end_time")]:
+            with self.assertRaises(grpc.RpcError) as ctx:
+                self.stub.ListEstimates(request, timeout=30)
+            self.assertEqual(ctx.exception.code(), CODE.INVALID_ARGUMENT)
+            self.assertIn(field, ctx.exception.details())
+        status, body = self.server.rest("GET", "/v1/containers/c/estimates/abc")
+        self.assertEqual(status, 400, body)
+
+    def test_a_second_replica_reads_what_the_first_recorded(self):
+        cid = self.prefix + "-r"
+        self.register(cid)
+        with self.replica() as other:
+            channel = other.channel(grpc)
+            stub = pb_grpc.SoilVolumeStub(channel)
+            written = self.estimate(cid, 0.15)
+            got = stub.GetEstimate(pb.GetEstimateRequest(
+                container_id=cid, estimate_id=written.estimate_id), timeout=30)
+            self.assertEqual(got.result.volume_m3, written.volume_m3)
+            channel.close()
+
+    def test_answered_estimates_survive_kill_9(self):
+        cid = self.prefix + "-k"
+        self.register(cid)
+        answered = []
+        victim = self.replica().start()
+        channel = victim.channel(grpc)
+        stub = pb_grpc.SoilVolumeStub(channel)
+        stop = threading.Event()
+
+        def load():
+            while not stop.is_set():
+                try:
+                    answered.append(self.estimate(cid, 0.1, stub=stub, omit_heightmap=True)
+                                    .estimate_id)
+                except grpc.RpcError:
+                    return  # the server died under this call: no answer, no promise
+
+        threads = [threading.Thread(target=load) for _ in range(4)]
+        for t in threads:
+            t.start()
+        deadline = time.time() + 60
+        while len(answered) < 12 and time.time() < deadline:
+            time.sleep(0.01)
+        victim.proc.send_signal(signal.SIGKILL)
+        stop.set()
+        for t in threads:
+            t.join(60)
+        channel.close()
+        victim.stop()
+        self.assertGreaterEqual(len(answered), 12)
+        # Every answered id is there for the server that shares the records.
+        for estimate_id in answered:
+            got = self.stub.GetEstimate(pb.GetEstimateRequest(
+                container_id=cid, estimate_id=estimate_id, view=pb.ESTIMATE_VIEW_BASIC),
+                timeout=30)
+            self.assertEqual(got.estimate_id, estimate_id)
+
+
+@needs_own_server
+class SqliteRecords(RecordsContract, unittest.TestCase):
+    @classmethod
+    def records_args(cls):
+        return []  # the default: <data-dir>/records.sqlite3
+
+    def replica(self):
+        """Another process on the same data directory (and so the same SQLite file)."""
+        return Server(data_dir=self.server.data_dir, args=["--workers", "2"])
+
+
+@needs_own_server
+@unittest.skipIf(not postgres_url() and os.environ.get("CI") != "true",
+                 "no PostgreSQL ($SOILVOL_TEST_POSTGRES_URL)")
+class PostgresRecords(RecordsContract, unittest.TestCase):
+    @classmethod
+    def records_args(cls):
+        if not postgres_url():
+            raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
+        return ["--records-url", postgres_url()]
+
+    def replica(self):
+        """Another process on the same model directory (as Kubernetes replicas share a volume)
+        and the same PostgreSQL database."""
+        return Server(data_dir=self.server.data_dir,
+                      args=["--workers", "2", "--records-url", postgres_url()])
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)

@@ -1,0 +1,151 @@
+#include "server/records/estimate_feed.hpp"
+
+#include <gtest/gtest.h>
+
+#include <condition_variable>
+
+#include "test_databases.hpp"
+
+namespace soilvol::server {
+namespace {
+
+using namespace std::chrono_literals;
+
+/// What a watch received, for waiting on from the test thread.
+struct Inbox {
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::vector<EstimateRecord> records;
+    std::optional<absl::Status> ended;
+
+    EstimateFeed::Deliver Deliver() {
+        return [this](const EstimateRecord& record) {
+            std::lock_guard<std::mutex> lock(mutex);
+            records.push_back(record);
+            changed.notify_all();
+            return true;
+        };
+    }
+    EstimateFeed::Ended Ended() {
+        return [this](const absl::Status& status) {
+            std::lock_guard<std::mutex> lock(mutex);
+            ended = status;
+            changed.notify_all();
+        };
+    }
+    bool WaitFor(std::size_t count, std::chrono::milliseconds timeout) {
+        std::unique_lock<std::mutex> lock(mutex);
+        return changed.wait_for(lock, timeout, [&] { return records.size() >= count; });
+    }
+    std::vector<std::int64_t> Ids() {
+        std::lock_guard<std::mutex> lock(mutex);
+        std::vector<std::int64_t> ids;
+        for (const EstimateRecord& r : records) ids.push_back(r.id);
+        return ids;
+    }
+};
+
+EstimateRecord Draft(const std::string& container) {
+    EstimateRecord record;
+    record.container_id = container;
+    record.payload = "x";
+    return record;
+}
+
+class EstimateFeedTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    ASSERT_TRUE(recorder.Record(Draft("a")).ok());  // before the watch: not delivered
+    EstimateFeed feed(recorder, {});
+    Inbox a, every;
+    auto watch_a = feed.Start({"a", std::nullopt}, a.Deliver(), a.Ended());
+    auto watch_all = feed.Start({"", std::nullopt}, every.Deliver(), every.Ended());
+    ASSERT_TRUE(watch_a.ok() && watch_all.ok());
+    std::this_thread::sleep_for(300ms);  // the feed places new watches at its next round
+    std::vector<std::int64_t> ids_a;
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < 6; ++i) {
+        const auto id = recorder.Record(Draft(i % 2 == 0 ? "a" : "b"));
+        ASSERT_TRUE(id.ok());
+        if (i % 2 == 0) ids_a.push_back(*id);
+    }
+    ASSERT_TRUE(a.WaitFor(3, 5s));
+    ASSERT_TRUE(every.WaitFor(6, 5s));
+    // Local commits wake the feed: well within the 1 s the API promises.
+    EXPECT_LT(std::chrono::steady_clock::now() - start, 1s);
+    EXPECT_EQ(a.Ids(), ids_a);
+    const std::vector<std::int64_t> all = every.Ids();
+    EXPECT_EQ(all.size(), 6u);
+    EXPECT_TRUE(std::is_sorted(all.begin(), all.end()));
+    feed.Stop(*watch_a);
+    EXPECT_EQ(feed.watches(), 1u);
+}
+
+TEST_P(EstimateFeedTest, AResumedWatchCatchesUpThenGoesLiveAndSeesOtherReplicas) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    auto replica = db.Open();
+    ASSERT_TRUE(store && replica);
+    EstimateRecorder recorder(*store, {});
+    std::vector<EstimateRecord> earlier;
+    for (int i = 0; i < 450; ++i) earlier.push_back(Draft(i % 3 == 0 ? "c" : "d"));
+    ASSERT_TRUE(store->Append(earlier).ok());
+    EstimateFeed::Config config;
+    config.batch = 100;  // several catch-up pages
+    EstimateFeed feed(recorder, config);
+    Inbox inbox;
+    const std::int64_t resume = earlier[29].id;
+    ASSERT_TRUE(feed.Start({"c", resume}, inbox.Deliver(), inbox.Ended()).ok());
+    std::vector<std::int64_t> expected;
+    for (const EstimateRecord& r : earlier) {
+        if (r.id > resume && r.container_id == "c") expected.push_back(r.id);
+    }
+    ASSERT_TRUE(inbox.WaitFor(expected.size(), 10s));
+    // Another replica writes straight to the database: seen by polling within a second.
+    std::vector<EstimateRecord> theirs = {Draft("c")};
+    const auto start = std::chrono::steady_clock::now();
+    ASSERT_TRUE(replica->Append(theirs).ok());
+    expected.push_back(theirs[0].id);
+    ASSERT_TRUE(inbox.WaitFor(expected.size(), 5s));
+    EXPECT_LT(std::chrono::steady_clock::now() - start, 1s);
+    EXPECT_EQ(inbox.Ids(), expected);
+}
+
+TEST_P(EstimateFeedTest, SlowWatchesEndAndShutdownEndsTheRest) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    Inbox slow_ended, rest;
+    {
+        EstimateFeed::Config config;
+        config.max_watches = 2;
+        EstimateFeed feed(recorder, config);
+        ASSERT_TRUE(feed.Start({"", 0}, [](const EstimateRecord&) { return false; },
+                               slow_ended.Ended())
+                        .ok());
+        ASSERT_TRUE(feed.Start({"", std::nullopt}, rest.Deliver(), rest.Ended()).ok());
+        EXPECT_TRUE(absl::IsResourceExhausted(
+            feed.Start({"", std::nullopt}, rest.Deliver(), rest.Ended()).status()));
+        ASSERT_TRUE(recorder.Record(Draft("a")).ok());
+        ASSERT_TRUE(rest.WaitFor(1, 5s));
+        std::unique_lock<std::mutex> lock(slow_ended.mutex);
+        ASSERT_TRUE(slow_ended.changed.wait_for(lock, 5s, [&] { return slow_ended.ended.has_value(); }));
+        EXPECT_TRUE(absl::IsResourceExhausted(*slow_ended.ended));
+    }
+    ASSERT_TRUE(rest.ended.has_value());
+    EXPECT_TRUE(absl::IsUnavailable(*rest.ended));
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, EstimateFeedTest, ::testing::Values("sqlite", "postgresql"),
+                         [](const auto& param_info) { return param_info.param; });
+
+}  // namespace
+}  // namespace soilvol::server

@@ -1,0 +1,199 @@
+#include "server/records/record_store.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <set>
+#include <thread>
+
+#include "test_databases.hpp"
+
+namespace soilvol::server {
+namespace {
+
+EstimateRecord Draft(const std::string& container, std::int64_t time_us, std::string payload = "p") {
+    EstimateRecord record;
+    record.container_id = container;
+    record.create_time_us = time_us;
+    record.request_id = "r-" + std::to_string(time_us);
+    record.payload = std::move(payload);
+    return record;
+}
+
+std::vector<std::int64_t> Ids(const std::vector<EstimateRecord>& records) {
+    std::vector<std::int64_t> ids;
+    for (const EstimateRecord& r : records) ids.push_back(r.id);
+    return ids;
+}
+
+class RecordStoreTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RecordStoreTest, AppendGivesIncreasingIdsAndGetReturnsTheRecord) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    std::string binary(1 << 20, '\0');
+    for (std::size_t i = 0; i < binary.size(); ++i) binary[i] = static_cast<char>(i * 131);
+    std::vector<EstimateRecord> batch = {Draft("a", 10, binary), Draft("b", 20)};
+    ASSERT_TRUE(store->Append(batch).ok());
+    EXPECT_GT(batch[0].id, 0);
+    EXPECT_GT(batch[1].id, batch[0].id);
+    std::vector<EstimateRecord> more = {Draft("a", 30)};
+    ASSERT_TRUE(store->Append(more).ok());
+    EXPECT_GT(more[0].id, batch[1].id);
+
+    const absl::StatusOr<EstimateRecord> got = store->Get("a", batch[0].id);
+    ASSERT_TRUE(got.ok()) << got.status();
+    EXPECT_EQ(got->payload, binary);  // bytes, NULs included
+    EXPECT_EQ(got->request_id, "r-10");
+    EXPECT_EQ(got->create_time_us, 10);
+    // Another container's id, or none, is not found.
+    EXPECT_TRUE(absl::IsNotFound(store->Get("b", batch[0].id).status()));
+    EXPECT_TRUE(absl::IsNotFound(store->Get("a", 999999).status()));
+    EXPECT_EQ(store->kind(), GetParam() == "sqlite" ? std::string("sqlite")
+                                                    : std::string("postgresql"));
+}
+
+TEST_P(RecordStoreTest, ListsNewestFirstByContainerAndTimeAndCatchesUpOldestFirst) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    std::vector<EstimateRecord> all;
+    for (int i = 0; i < 10; ++i) all.push_back(Draft(i % 2 == 0 ? "even" : "odd", 100 * i));
+    ASSERT_TRUE(store->Append(all).ok());
+
+    RecordQuery query;
+    query.container_id = "even";
+    query.limit = 3;
+    auto page = store->List(query);
+    ASSERT_TRUE(page.ok()) << page.status();
+    EXPECT_EQ(Ids(*page), (std::vector<std::int64_t>{all[8].id, all[6].id, all[4].id}));
+    query.before_id = page->back().id;
+    page = store->List(query);
+    ASSERT_TRUE(page.ok());
+    EXPECT_EQ(Ids(*page), (std::vector<std::int64_t>{all[2].id, all[0].id}));
+
+    RecordQuery window;  // every container, [200, 600)
+    window.start_time_us = 200;
+    window.end_time_us = 600;
+    window.with_payload = false;
+    page = store->List(window);
+    ASSERT_TRUE(page.ok());
+    EXPECT_EQ(Ids(*page), (std::vector<std::int64_t>{all[5].id, all[4].id, all[3].id, all[2].id}));
+    EXPECT_TRUE((*page)[0].payload.empty());
+
+    RecordQuery after;
+    after.after_id = all[6].id;
+    page = store->List(after);
+    ASSERT_TRUE(page.ok());
+    EXPECT_EQ(Ids(*page), (std::vector<std::int64_t>{all[7].id, all[8].id, all[9].id}));
+    EXPECT_EQ((*page)[0].payload, "p");
+}
+
+TEST_P(RecordStoreTest, PruneKeepsTheNewestPerContainerAndNothingTooOld) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    const std::int64_t now = 1'000'000'000'000;
+    const std::int64_t hour = 3'600'000'000;
+    std::vector<EstimateRecord> records;
+    for (int i = 0; i < 5; ++i) records.push_back(Draft("a", now - i * hour));
+    records.push_back(Draft("b", now - 50 * hour));  // too old
+    records.push_back(Draft("b", now));
+    ASSERT_TRUE(store->Append(records).ok());
+    RetentionPolicy policy;
+    policy.max_per_container = 3;
+    policy.max_age = std::chrono::hours(48);
+    const absl::StatusOr<std::int64_t> pruned = store->Prune(policy, now);
+    ASSERT_TRUE(pruned.ok()) << pruned.status();
+    EXPECT_EQ(*pruned, 3);
+    // "a" keeps its three newest records (by id, the order they were recorded).
+    RecordQuery a;
+    a.container_id = "a";
+    EXPECT_EQ(Ids(*store->List(a)),
+              (std::vector<std::int64_t>{records[4].id, records[3].id, records[2].id}));
+    RecordQuery b;
+    b.container_id = "b";
+    EXPECT_EQ(Ids(*store->List(b)), (std::vector<std::int64_t>{records[6].id}));
+}
+
+// Two stores on one database (two replicas) write while a third watches by last-seen id:
+// ids commit in order, so the watcher sees every record exactly once.
+TEST_P(RecordStoreTest, AWatcherResumingAfterItsLastIdMissesNoRecordOfAnyReplica) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto one = db.Open();
+    auto two = db.Open();
+    auto watcher = db.Open();
+    ASSERT_TRUE(one && two && watcher);
+    constexpr int kPerWriter = 150;
+    std::atomic<int> done{0};
+    const auto write = [&](RecordStore* store, const std::string& container) {
+        for (int i = 0; i < kPerWriter; ++i) {
+            std::vector<EstimateRecord> batch = {Draft(container, i)};
+            if (i % 3 == 0) batch.push_back(Draft(container, i));
+            EXPECT_TRUE(store->Append(batch).ok());
+        }
+        ++done;
+    };
+    std::thread a(write, one.get(), "one");
+    std::thread b(write, two.get(), "two");
+    std::vector<std::int64_t> seen;
+    std::int64_t last = 0;
+    while (true) {
+        const bool finished = done == 2;
+        RecordQuery query;
+        query.after_id = last;
+        query.limit = 1000;
+        query.with_payload = false;
+        const auto page = watcher->List(query);
+        ASSERT_TRUE(page.ok()) << page.status();
+        for (const EstimateRecord& record : *page) seen.push_back(record.id);
+        if (!page->empty()) last = page->back().id;
+        if (finished && page->empty()) break;
+    }
+    a.join();
+    b.join();
+    RecordQuery everything;
+    everything.limit = 100000;
+    everything.with_payload = false;
+    std::vector<std::int64_t> all = Ids(*watcher->List(everything));
+    std::sort(all.begin(), all.end());
+    EXPECT_EQ(all.size(), 2u * (kPerWriter + kPerWriter / 3));
+    EXPECT_EQ(seen, all);
+}
+
+TEST(RecordStore, UrlsNameTheirBackendAndBadOnesAreRefused) {
+    ScratchDir dir;
+    const auto bad = OpenRecordStore("mysql://user:secret@host/db", dir.path());
+    EXPECT_TRUE(absl::IsInvalidArgument(bad.status()));
+    EXPECT_EQ(std::string(bad.status().message()).find("secret"), std::string::npos);
+    EXPECT_NE(std::string(bad.status().message()).find("records-url"), std::string::npos);
+    const auto missing = OpenRecordStore("sqlite:" + (dir.path() / "no/such/dir/r.db").string(),
+                                         dir.path());
+    EXPECT_TRUE(absl::IsUnavailable(missing.status())) << missing.status();
+    // A file that is not a database: refused, not a crash.
+    const std::filesystem::path junk = dir.path() / "junk.sqlite3";
+    std::ofstream(junk) << std::string(8192, 'x');
+    const auto damaged = OpenRecordStore("sqlite:" + junk.string(), dir.path());
+    EXPECT_FALSE(damaged.ok());
+    // Unreachable PostgreSQL: Unavailable, the password not echoed.
+    const auto unreachable =
+        OpenRecordStore("postgresql://u:hunter2@127.0.0.1:1/db?connect_timeout=2", dir.path());
+    EXPECT_TRUE(absl::IsUnavailable(unreachable.status())) << unreachable.status();
+    EXPECT_EQ(std::string(unreachable.status().message()).find("hunter2"), std::string::npos);
+    // The default: SQLite in the data directory.
+    const auto fallback = OpenRecordStore("", dir.path());
+    ASSERT_TRUE(fallback.ok());
+    EXPECT_TRUE(std::filesystem::exists(dir.path() / "records.sqlite3"));
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, RecordStoreTest, ::testing::Values("sqlite", "postgresql"),
+                         [](const auto& param_info) { return param_info.param; });
+
+}  // namespace
+}  // namespace soilvol::server

@@ -1,0 +1,97 @@
+#include "server/records/recorder.hpp"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <thread>
+
+#include "test_databases.hpp"
+
+namespace soilvol::server {
+namespace {
+
+class RecorderTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RecorderTest, ConcurrentRecordsShareBatchesAndEachGetsItsId) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    constexpr int kThreads = 8, kEach = 40;
+    std::vector<std::vector<std::int64_t>> ids(kThreads);
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t) {
+        threads.emplace_back([&, t] {
+            for (int i = 0; i < kEach; ++i) {
+                EstimateRecord record;
+                record.container_id = "c" + std::to_string(t);
+                record.create_time_us = i;
+                record.payload = std::to_string(t * 1000 + i);
+                const absl::StatusOr<std::int64_t> id = recorder.Record(record);
+                ASSERT_TRUE(id.ok()) << id.status();
+                ids[t].push_back(*id);
+            }
+        });
+    }
+    for (std::thread& thread : threads) thread.join();
+    std::set<std::int64_t> unique;
+    for (int t = 0; t < kThreads; ++t) {
+        EXPECT_TRUE(std::is_sorted(ids[t].begin(), ids[t].end()));
+        unique.insert(ids[t].begin(), ids[t].end());
+        // Each id holds the record its caller gave.
+        const auto got = store->Get("c" + std::to_string(t), ids[t][kEach / 2]);
+        ASSERT_TRUE(got.ok());
+        EXPECT_EQ(got->payload, std::to_string(t * 1000 + kEach / 2));
+    }
+    EXPECT_EQ(unique.size(), static_cast<std::size_t>(kThreads * kEach));
+    const EstimateRecorder::Stats stats = recorder.stats();
+    EXPECT_EQ(stats.records, static_cast<std::uint64_t>(kThreads * kEach));
+    EXPECT_LE(stats.batches, stats.records);
+}
+
+TEST_P(RecorderTest, WatchersWakeOnACommit) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    EXPECT_EQ(recorder.WaitForNewer(0, std::chrono::milliseconds(10)), 0);
+    std::int64_t woke = 0;
+    std::thread watcher([&] { woke = recorder.WaitForNewer(0, std::chrono::seconds(30)); });
+    EstimateRecord record;
+    record.container_id = "c";
+    const absl::StatusOr<std::int64_t> id = recorder.Record(record);
+    watcher.join();
+    ASSERT_TRUE(id.ok());
+    EXPECT_EQ(woke, *id);
+}
+
+TEST_P(RecorderTest, RetentionAppliesAsRecordsArrive) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder::Config config;
+    config.retention.max_per_container = 2;
+    config.prune_every = std::chrono::seconds(0);  // after every batch
+    EstimateRecorder recorder(*store, config);
+    for (int i = 0; i < 5; ++i) {
+        EstimateRecord record;
+        record.container_id = "c";
+        record.create_time_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                                    std::chrono::system_clock::now().time_since_epoch())
+                                    .count();
+        ASSERT_TRUE(recorder.Record(record).ok());
+    }
+    RecordQuery query;
+    query.container_id = "c";
+    EXPECT_LE(store->List(query)->size(), 3u);  // the last batch may await its prune
+    EXPECT_GE(recorder.stats().pruned, 2u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, RecorderTest, ::testing::Values("sqlite", "postgresql"),
+                         [](const auto& param_info) { return param_info.param; });
+
+}  // namespace
+}  // namespace soilvol::server
