@@ -46,6 +46,7 @@ int RunCli(int argc, const char* const* argv) {
     AddRegisterCommand(app, global, &exit_code);
     AddEstimateCommand(app, global, &exit_code);
     AddResourceCommands(app, global, &exit_code);
+    AddEstimatesCommand(app, global, &exit_code);
     AddHealthCommand(app, global, &exit_code);
     AddDemoCommand(app, global, &exit_code);
     try {

@@ -11,6 +11,7 @@ namespace soilvol::client {
 void AddCalibrateCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddEstimateCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
+void AddEstimatesCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddResourceCommands(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddHealthCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);

@@ -76,6 +76,12 @@ std::unique_ptr<grpc::ClientContext> Connection::NewContext() const {
     return context;
 }
 
+std::unique_ptr<grpc::ClientContext> Connection::NewOpenContext() const {
+    auto context = std::make_unique<grpc::ClientContext>();
+    if (!authorization_.empty()) context->AddMetadata("authorization", authorization_);
+    return context;
+}
+
 std::string StatusCodeName(grpc::StatusCode code) {
     static const std::array<const char*, 17> kNames = {"OK",
                                                        "CANCELLED",

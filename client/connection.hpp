@@ -45,6 +45,8 @@ class Connection {
 
     /// A context whose deadline is timeout_s from now.
     std::unique_ptr<grpc::ClientContext> NewContext() const;
+    /// A context without a deadline, for a watch that runs until stopped.
+    std::unique_ptr<grpc::ClientContext> NewOpenContext() const;
 
   private:
     double timeout_s_;

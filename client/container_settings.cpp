@@ -16,8 +16,8 @@ void AddSettingsOptions(CLI::App* command, ContainerSettings* s) {
                                     "loose density of the material [kg/m^3]: mass = volume * it"));
     o.push_back(command->add_option("--bulking", s->bulking_factor,
                                     "loose over in-place volume (swell) of the material"));
-    auto* volume = command->add_option("--target-volume", s->target_volume_m3,
-                                       "target load volume [m^3]");
+    auto* volume =
+        command->add_option("--target-volume", s->target_volume_m3, "target load volume [m^3]");
     auto* payload = command->add_option("--target-payload", s->target_payload_kg,
                                         "target payload [kg] (needs a density)");
     volume->excludes(payload);

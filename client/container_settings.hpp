@@ -1,11 +1,10 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
-
-#include "absl/status/status.h"
 #include <string>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "google/protobuf/field_mask.pb.h"
 #include "soilvol/v1/soilvol.pb.h"
 

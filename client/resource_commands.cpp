@@ -109,7 +109,8 @@ int RunUpdate(const std::string& id, const std::string& etag, const ContainerSet
     if (!connection.ok()) return kExitUsage;
     const auto context = connection.NewContext();
     v1::Container container;
-    const grpc::Status status = connection.Soil().UpdateContainer(context.get(), request, &container);
+    const grpc::Status status =
+        connection.Soil().UpdateContainer(context.get(), request, &container);
     if (!status.ok()) return ReportRpcError(status);
     PrintContainer(container, global.json, std::cout);
     return kExitOk;

@@ -149,9 +149,9 @@ void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream&
          {"fill of heaped SAE [%]", Percent(e.fill_ratio_heaped())}});
     if (e.has_mass_kg()) fields.push_back({"mass [kg]", Fixed(e.mass_kg(), 1)});
     if (e.has_load()) {
-        std::string status = absl::StrCat(
-            EnumLabel(v1::LoadStatus_Name(e.load().status()), "LOAD_STATUS_"), " (p ",
-            Fixed(e.load().status_probability(), 2), ")");
+        std::string status =
+            absl::StrCat(EnumLabel(v1::LoadStatus_Name(e.load().status()), "LOAD_STATUS_"), " (p ",
+                         Fixed(e.load().status_probability(), 2), ")");
         if (e.load().has_target_ratio()) {
             absl::StrAppend(&status, ", ", Fixed(100.0 * e.load().target_ratio(), 1),
                             "% of target");
@@ -208,6 +208,58 @@ void PrintContainerList(const v1::ListContainersResponse& list, bool json, std::
     }
     table.Print(out);
     PrintUnreadable(list.unreadable(), out);
+}
+
+namespace {
+
+std::vector<std::string> EstimateCells(const v1::Estimate& e) {
+    const v1::EstimateVolumeResponse& r = e.result();
+    return {e.estimate_id(),
+            e.container_id(),
+            Time(e.create_time()),
+            Fixed(r.volume_m3(), 4),
+            Fixed(1000.0 * r.uncertainty_m3(), 1),
+            r.has_mass_kg() ? Fixed(r.mass_kg(), 0) : "-",
+            EnumLabel(v1::LoadStatus_Name(r.load().status()), "LOAD_STATUS_"),
+            e.request_id().empty() ? "-" : e.request_id()};
+}
+
+const std::vector<std::string> kEstimateHeaders = {
+    "id", "container", "time", "volume [m^3]", "sigma [L]", "mass [kg]", "status", "request"};
+
+}  // namespace
+
+void PrintEstimateList(const std::vector<v1::Estimate>& estimates, bool json, std::ostream& out) {
+    if (json) {
+        v1::ListEstimatesResponse list;
+        for (const v1::Estimate& e : estimates) *list.add_estimates() = e;
+        return PrintJson(list, out);
+    }
+    Table table(kEstimateHeaders);
+    for (const v1::Estimate& e : estimates) table.AddRow(EstimateCells(e));
+    table.Print(out);
+}
+
+void PrintEstimateRecord(const v1::Estimate& estimate, bool json, std::ostream& out) {
+    if (json) return PrintJson(estimate, out);
+    PrintFields(
+        {{"estimate id", estimate.estimate_id()}, {"recorded", Time(estimate.create_time())}}, out);
+    PrintEstimate(estimate.result(), false, out);
+}
+
+void PrintEstimateLine(const v1::Estimate& estimate, bool json, std::ostream& out) {
+    if (json) {
+        std::string line;
+        if (!google::protobuf::util::MessageToJsonString(estimate, &line).ok()) line = "{}";
+        out << line << std::endl;
+        return;
+    }
+    const std::vector<std::string> cells = EstimateCells(estimate);
+    std::string line;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        absl::StrAppend(&line, i == 0 ? "" : "  ", kEstimateHeaders[i], " ", cells[i]);
+    }
+    out << line << std::endl;
 }
 
 }  // namespace soilvol::client

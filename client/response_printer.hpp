@@ -21,6 +21,11 @@ void PrintContainer(const v1::Container& container, bool json, std::ostream& out
 void PrintEstimate(const v1::EstimateVolumeResponse& estimate, bool json, std::ostream& out);
 void PrintCalibrationList(const v1::ListCalibrationsResponse& list, bool json, std::ostream& out);
 void PrintContainerList(const v1::ListContainersResponse& list, bool json, std::ostream& out);
+/// Records: a table of several (newest first), or one in full.
+void PrintEstimateList(const std::vector<v1::Estimate>& estimates, bool json, std::ostream& out);
+void PrintEstimateRecord(const v1::Estimate& estimate, bool json, std::ostream& out);
+/// One line per record as a watch receives it (JSON: one object per line).
+void PrintEstimateLine(const v1::Estimate& estimate, bool json, std::ostream& out);
 
 /// "CALIBRATION_SOURCE_CHESSBOARD" -> "chessboard": the enum value name without `prefix`.
 std::string EnumLabel(const std::string& name, const std::string& prefix);

@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 14> kMethodScopes = {{
+constexpr std::array<MethodScope, 15> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -34,6 +34,7 @@ constexpr std::array<MethodScope, 14> kMethodScopes = {{
     {"DeleteContainer", Scope::kAdmin},
     {"GetEstimate", Scope::kRead},
     {"ListEstimates", Scope::kRead},
+    {"WatchEstimates", Scope::kRead},
     {"EstimateVolume", Scope::kEstimate},
     {"StreamEstimates", Scope::kEstimate},
     {"GetServerInfo", Scope::kRead},

@@ -1,5 +1,9 @@
 #include "server/grpc_service.hpp"
 
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <optional>
 #include <string>
 
 #include "server/call_ids.hpp"
@@ -62,6 +66,118 @@ class EstimateStream final
     v1::StreamEstimatesResponse response_;
     const std::string request_id_;
     int64_t sequence_ = 0;
+};
+
+/// WatchEstimates: records from the feed are queued (at most kMaxQueued; beyond, the watch
+/// ends as too slow) and written one at a time. The shared State outlives the reactor, so a
+/// record the feed hands over while the call ends finds no reactor rather than a dangling one.
+class WatchStream final : public grpc::ServerWriteReactor<v1::Estimate> {
+  public:
+    static constexpr std::size_t kMaxQueued = 256;
+
+    WatchStream(grpc::CallbackServerContext* context, SoilVolumeHandlers& handlers,
+                Dispatcher& dispatcher, const v1::WatchEstimatesRequest& request)
+        : state_(std::make_shared<State>()) {
+        state_->reactor = this;
+        CallContext call = GrpcCallContext(context, "WatchEstimates");
+        context->AddInitialMetadata("x-request-id", call.request_id);
+        if (absl::Status allowed = dispatcher.Authorize(call); !allowed.ok()) {
+            dispatcher.Refuse(call, allowed);
+            FinishOnce(ToGrpcStatus(allowed));
+            return;
+        }
+        std::shared_ptr<State> state = state_;
+        absl::StatusOr<std::function<void()>> stop = handlers.WatchEstimates(
+            request, [state](const v1::Estimate* estimate) { return state->Push(estimate); },
+            [state](const absl::Status& status) { state->End(ToGrpcStatus(status)); });
+        if (!stop.ok()) {
+            dispatcher.Refuse(call, stop.status());
+            FinishOnce(ToGrpcStatus(stop.status()));
+            return;
+        }
+        stop_ = *std::move(stop);
+        StartSendInitialMetadata();  // the client sees the watch is on before any record
+    }
+
+    void OnWriteDone(bool ok) override {
+        std::lock_guard<std::recursive_mutex> lock(state_->mutex);
+        state_->queue.pop_front();
+        if (!ok) {
+            state_->writing = false;
+            state_->FinishLocked(grpc::Status(grpc::StatusCode::CANCELLED, "the client left"));
+            return;
+        }
+        if (!state_->queue.empty()) {
+            StartWrite(&state_->queue.front());
+            return;
+        }
+        state_->writing = false;
+        if (state_->pending_finish) state_->FinishLocked(*state_->pending_finish);
+    }
+
+    void OnCancel() override { StopWatch(); }
+
+    void OnDone() override {
+        StopWatch();
+        {
+            std::lock_guard<std::recursive_mutex> lock(state_->mutex);
+            state_->reactor = nullptr;
+        }
+        delete this;
+    }
+
+  private:
+    struct State {
+        std::recursive_mutex mutex;  // gRPC may run a reaction inline
+        WatchStream* reactor = nullptr;
+        std::deque<v1::Estimate> queue;  // front: being written
+        bool writing = false;
+        bool finished = false;
+        std::optional<grpc::Status> pending_finish;
+
+        bool Push(const v1::Estimate* estimate) {
+            std::lock_guard<std::recursive_mutex> lock(mutex);
+            if (reactor == nullptr || finished) return false;
+            if (estimate == nullptr) return true;  // heartbeat: gRPC keepalive covers it
+            if (queue.size() >= kMaxQueued) return false;
+            queue.push_back(*estimate);
+            if (!writing) {
+                writing = true;
+                reactor->StartWrite(&queue.front());
+            }
+            return true;
+        }
+        void End(const grpc::Status& status) {
+            std::lock_guard<std::recursive_mutex> lock(mutex);
+            if (writing) {
+                pending_finish = status;  // after what is queued
+            } else {
+                FinishLocked(status);
+            }
+        }
+        void FinishLocked(const grpc::Status& status) {
+            if (reactor == nullptr || finished) return;
+            finished = true;
+            reactor->Finish(status);
+        }
+    };
+
+    void FinishOnce(const grpc::Status& status) {
+        std::lock_guard<std::recursive_mutex> lock(state_->mutex);
+        state_->FinishLocked(status);
+    }
+    void StopWatch() {
+        std::function<void()> stop;
+        {
+            std::lock_guard<std::recursive_mutex> lock(state_->mutex);
+            stop.swap(stop_);
+        }
+        if (stop) stop();  // no callback runs after it returns
+        FinishOnce(grpc::Status(grpc::StatusCode::CANCELLED, "the client left"));
+    }
+
+    std::shared_ptr<State> state_;
+    std::function<void()> stop_;
 };
 
 }  // namespace
@@ -152,6 +268,11 @@ SOILVOL_UNARY_RPC(DeleteContainer, DeleteContainerRequest, DeleteContainerRespon
 SOILVOL_UNARY_RPC(EstimateVolume, EstimateVolumeRequest, EstimateVolumeResponse)
 SOILVOL_UNARY_RPC(GetServerInfo, GetServerInfoRequest, ServerInfo)
 #undef SOILVOL_UNARY_RPC
+
+grpc::ServerWriteReactor<v1::Estimate>* SoilVolumeService::WatchEstimates(
+    grpc::CallbackServerContext* context, const v1::WatchEstimatesRequest* request) {
+    return new WatchStream(context, handlers_, dispatcher_, *request);
+}
 
 grpc::ServerBidiReactor<v1::EstimateVolumeRequest, v1::StreamEstimatesResponse>*
 SoilVolumeService::StreamEstimates(grpc::CallbackServerContext* context) {

@@ -60,6 +60,8 @@ class SoilVolumeService final : public v1::SoilVolume::CallbackService {
                                             v1::ServerInfo* response) override;
     grpc::ServerBidiReactor<v1::EstimateVolumeRequest, v1::StreamEstimatesResponse>*
     StreamEstimates(grpc::CallbackServerContext* context) override;
+    grpc::ServerWriteReactor<v1::Estimate>* WatchEstimates(
+        grpc::CallbackServerContext* context, const v1::WatchEstimatesRequest* request) override;
 
   private:
     grpc::ServerUnaryReactor* Unary(grpc::CallbackServerContext* context, const char* method,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <mutex>
 
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
@@ -10,6 +11,7 @@
 #include "google/protobuf/util/json_util.h"
 #include "proto/openapi_document.hpp"
 #include "server/call_ids.hpp"
+#include "server/logging.hpp"
 #include "server/multipart.hpp"
 #include "server/status_map.hpp"
 
@@ -124,10 +126,11 @@ absl::StatusOr<double> ParseGrpcTimeout(const std::string& value) {
 }
 
 HttpGateway::HttpGateway(HttpGatewayOptions options, std::map<std::string, Rpc> rpcs,
-                         std::vector<HttpRoute> routes, Dispatcher& dispatcher, Metrics& metrics,
-                         std::function<bool()> ready)
+                         std::map<std::string, StreamRpc> streams, std::vector<HttpRoute> routes,
+                         Dispatcher& dispatcher, Metrics& metrics, std::function<bool()> ready)
     : options_(std::move(options)),
       rpcs_(std::move(rpcs)),
+      streams_(std::move(streams)),
       routes_(std::move(routes)),
       dispatcher_(dispatcher),
       metrics_(metrics),
@@ -329,7 +332,96 @@ void HttpGateway::Handle(HttpRequest request, std::shared_ptr<HttpExchange> exch
     if (ServeOperational(request, false, *exchange)) return;
     absl::StatusOr<RouteMatch> match = MatchRoute(routes_, request.method, request.path);
     if (!match.ok()) return exchange->Respond(ErrorResponse(match.status(), origin));
+    if (const auto stream = streams_.find(match->route->method); stream != streams_.end()) {
+        return ServeStream(stream->second, *match, std::move(request), std::move(exchange));
+    }
     ServeRpc(*match, std::move(request), std::move(exchange));
+}
+
+void HttpGateway::ServeStream(const StreamRpc& rpc, const RouteMatch& match, HttpRequest request,
+                              std::shared_ptr<HttpExchange> exchange) {
+    const std::string origin = request.headers.Get("Origin");
+    CallContext call = ContextOf(request, match.route->method);
+    const auto refuse = [&](const absl::Status& status) {
+        dispatcher_.Refuse(call, status);
+        HttpResponse response = ErrorResponse(status, origin);
+        response.headers.Set("X-Request-Id", call.request_id);
+        exchange->Respond(std::move(response));
+    };
+    if (absl::Status allowed = dispatcher_.Authorize(call); !allowed.ok()) return refuse(allowed);
+    std::unique_ptr<google::protobuf::Message> message = rpc.new_request();
+    if (absl::Status bound =
+            BindRequest(*match.route, match.fields, request.query,
+                        request.headers.Get("Content-Type"), request.body, message.get());
+        !bound.ok()) {
+        return refuse(bound);
+    }
+    // An EventSource reconnecting sends the last id it saw: resume after it.
+    const std::string& last_event_id = request.headers.Get("Last-Event-ID");
+    const google::protobuf::FieldDescriptor* resume =
+        message->GetDescriptor()->FindFieldByName(rpc.resume_field);
+    if (!last_event_id.empty() && resume != nullptr &&
+        message->GetReflection()->GetString(*message, resume).empty()) {
+        message->GetReflection()->SetString(message.get(), resume, last_event_id);
+    }
+    // Records may arrive before the head is sent: they wait in `pending` until it is.
+    struct Sse {
+        std::mutex mutex;
+        bool started = false;
+        std::vector<std::string> pending;
+    };
+    auto sse = std::make_shared<Sse>();
+    const std::string id_field = rpc.id_field;
+    const auto send = [sse, exchange](std::string chunk) {
+        std::lock_guard<std::mutex> lock(sse->mutex);
+        if (!sse->started) {
+            sse->pending.push_back(std::move(chunk));
+            return true;
+        }
+        return exchange->Send(std::move(chunk));
+    };
+    auto deliver = [send, id_field](const google::protobuf::Message* item) {
+        if (item == nullptr) return send(": keepalive\n\n");
+        std::string json;
+        if (!google::protobuf::util::MessageToJsonString(*item, &json).ok()) return true;
+        const google::protobuf::FieldDescriptor* id =
+            item->GetDescriptor()->FindFieldByName(id_field);
+        const std::string event_id =
+            id != nullptr ? item->GetReflection()->GetString(*item, id) : "";
+        return send(absl::StrCat("id: ", event_id, "\nevent: estimate\ndata: ", json, "\n\n"));
+    };
+    auto ended = [sse, exchange](const absl::Status& status) {
+        std::lock_guard<std::mutex> lock(sse->mutex);
+        exchange->Send(absl::StrCat("event: error\ndata: ", ErrorJson(status), "\n\n"));
+        exchange->Finish();
+    };
+    absl::StatusOr<std::function<void()>> stop =
+        rpc.start(*message, std::move(deliver), std::move(ended));
+    if (!stop.ok()) return refuse(stop.status());
+    HttpResponse head;
+    head.content_type = "text/event-stream";
+    head.headers.Set("Cache-Control", "no-cache");
+    head.headers.Set("X-Accel-Buffering", "no");  // proxies: pass each event on at once
+    head.headers.Set("X-Request-Id", call.request_id);
+    ApplyCors(origin, head.headers);
+    bool started = false;
+    {
+        std::lock_guard<std::mutex> lock(sse->mutex);
+        started = exchange->StartStream(std::move(head));
+        if (started) {
+            sse->started = true;
+            // The retry hint, then what arrived meanwhile.
+            exchange->Send("retry: 1000\n: watching\n\n");
+            for (std::string& chunk : sse->pending) exchange->Send(std::move(chunk));
+            sse->pending.clear();
+        }
+    }
+    if (!started) {  // the client left already; stopped outside the lock a delivery may hold
+        (*stop)();
+        return;
+    }
+    LogEvent(LogLevel::kInfo, "watch started",
+             {{"method", call.method}, {"request_id", call.request_id}, {"peer", call.peer}});
 }
 
 void HttpGateway::ServeRpc(const RouteMatch& match, HttpRequest request,

@@ -36,9 +36,10 @@ struct HttpGatewayOptions {
 /// /healthz (live), /readyz (ready) and /metrics (Prometheus text).
 class HttpGateway {
   public:
+    /// `streams`: the server-streaming RPCs, served as Server-Sent Events.
     HttpGateway(HttpGatewayOptions options, std::map<std::string, Rpc> rpcs,
-                std::vector<HttpRoute> routes, Dispatcher& dispatcher, Metrics& metrics,
-                std::function<bool()> ready);
+                std::map<std::string, StreamRpc> streams, std::vector<HttpRoute> routes,
+                Dispatcher& dispatcher, Metrics& metrics, std::function<bool()> ready);
     ~HttpGateway();
 
     /// Binds and serves; the bound REST port. Unavailable when an address cannot be bound,
@@ -59,6 +60,11 @@ class HttpGateway {
     bool ServeOperational(const HttpRequest& request, bool probe, HttpExchange& exchange) const;
     void ServeRpc(const RouteMatch& match, HttpRequest request,
                   std::shared_ptr<HttpExchange> exchange);
+    /// A server-streaming RPC as Server-Sent Events: `event: <name>`, `id:` the message's
+    /// id field, `data:` its JSON; Last-Event-ID resumes; comments as heartbeats; an `error`
+    /// event (a google.rpc.Status) when the server ends the stream.
+    void ServeStream(const StreamRpc& rpc, const RouteMatch& match, HttpRequest request,
+                     std::shared_ptr<HttpExchange> exchange);
     /// The request's call as the dispatcher sees it (method, peer, credentials).
     CallContext ContextOf(const HttpRequest& request, const std::string& method) const;
     /// CORS headers for an allowed origin; false when the Origin is absent or not allowed.
@@ -70,6 +76,7 @@ class HttpGateway {
 
     HttpGatewayOptions options_;
     std::map<std::string, Rpc> rpcs_;
+    std::map<std::string, StreamRpc> streams_;
     std::vector<HttpRoute> routes_;
     Dispatcher& dispatcher_;
     Metrics& metrics_;

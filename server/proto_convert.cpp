@@ -5,9 +5,9 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
-#include "google/protobuf/util/time_util.h"
 #include "core/common/status_macros.hpp"
 #include "core/volume/load_distribution.hpp"
+#include "google/protobuf/util/time_util.h"
 
 namespace soilvol::server {
 namespace {

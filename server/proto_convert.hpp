@@ -32,8 +32,7 @@ struct LoadRules {
     volume::Material material;
     volume::LoadTargets targets;
 };
-absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material,
-                                      const v1::LoadTargets& targets);
+absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material, const v1::LoadTargets& targets);
 
 /// The time now to the microsecond (Debian's protobuf TimeUtil::GetCurrentTime() has whole
 /// seconds only, which orders nothing within a second).

@@ -39,8 +39,7 @@ absl::StatusOr<std::int64_t> MicrosOf(const google::protobuf::Timestamp& time, c
 
 absl::StatusOr<EstimateRecorder*> SoilVolumeHandlers::Recorder() const {
     if (recorder_ == nullptr) {
-        return absl::FailedPreconditionError(
-            "records are off on this server (--records-url none)");
+        return absl::FailedPreconditionError("records are off on this server (--records-url none)");
     }
     return recorder_;
 }
@@ -111,6 +110,31 @@ absl::Status SoilVolumeHandlers::ListEstimates(const v1::ListEstimatesRequest& r
     }
     if (more && !rows.empty()) response->set_next_page_token(RecordPageToken(rows.back().id));
     return absl::OkStatus();
+}
+
+absl::StatusOr<std::function<void()>> SoilVolumeHandlers::WatchEstimates(
+    const v1::WatchEstimatesRequest& request, WatchDeliver deliver, WatchEnded ended) {
+    SOILVOL_RETURN_IF_ERROR(Recorder().status());
+    EstimateFeed::Spec spec;
+    if (!request.container_id().empty() && request.container_id() != "-") {
+        SOILVOL_RETURN_IF_ERROR(ValidateId(request.container_id(), "container_id"));
+        spec.container_id = request.container_id();
+    }
+    if (!request.after_estimate_id().empty()) {
+        SOILVOL_ASSIGN_OR_RETURN(spec.after_id,
+                                 ParseRecordId(request.after_estimate_id(), "after_estimate_id"));
+    }
+    const bool full = request.view() == v1::ESTIMATE_VIEW_FULL;
+    auto converted = [deliver = std::move(deliver), full](const EstimateRecord* row) {
+        if (row == nullptr) return deliver(nullptr);
+        v1::Estimate estimate;
+        // A record that does not parse is skipped: the watch goes on.
+        return !FromRecord(*row, full, &estimate).ok() || deliver(&estimate);
+    };
+    SOILVOL_ASSIGN_OR_RETURN(std::shared_ptr<EstimateFeed::Watch> watch,
+                             feed_->Start(std::move(spec), std::move(converted), std::move(ended)));
+    EstimateFeed* feed = feed_;
+    return std::function<void()>([feed, watch] { feed->Stop(watch); });
 }
 
 }  // namespace soilvol::server

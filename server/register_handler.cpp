@@ -9,11 +9,11 @@
 #include "core/pipeline/registration.hpp"
 #include "google/protobuf/util/field_mask_util.h"
 #include "google/protobuf/util/time_util.h"
-#include "server/resource_rules.hpp"
-#include "server/store/entry_id.hpp"
 #include "server/proto_convert.hpp"
+#include "server/resource_rules.hpp"
 #include "server/soilvol_handlers.hpp"
 #include "server/status_map.hpp"
+#include "server/store/entry_id.hpp"
 #include "server/stored_record.hpp"
 
 namespace soilvol::server {
@@ -41,8 +41,8 @@ absl::Status CheckSettings(const v1::Container& container, const std::string& pr
         ValidateDisplayName(container.display_name(), absl::StrCat(prefix, "display_name")));
     const std::string labels = absl::StrCat(prefix, "labels");
     if (container.labels_size() > kMaxLabels) {
-        return absl::InvalidArgumentError(absl::StrCat(labels, ": at most ", kMaxLabels, " (got ",
-                                                       container.labels_size(), ")"));
+        return absl::InvalidArgumentError(
+            absl::StrCat(labels, ": at most ", kMaxLabels, " (got ", container.labels_size(), ")"));
     }
     for (const auto& [key, value] : container.labels()) {
         SOILVOL_RETURN_IF_ERROR(ValidateLabel(key, value, labels));
@@ -61,7 +61,8 @@ constexpr std::array<const char*, 4> kSettings = {"display_name", "labels", "mat
 /// one ("*" for all settings), or - without paths - the settings the request sets. Paths of
 /// the container's other fields (its id, etag, and output-only figures, which a client that
 /// sends back what it read names) are ignored; paths of no field are an error.
-absl::StatusOr<google::protobuf::FieldMask> UpdateMaskOf(const v1::UpdateContainerRequest& request) {
+absl::StatusOr<google::protobuf::FieldMask> UpdateMaskOf(
+    const v1::UpdateContainerRequest& request) {
     google::protobuf::FieldMask mask;
     const v1::Container& given = request.container();
     if (request.update_mask().paths_size() == 0) {
@@ -75,8 +76,8 @@ absl::StatusOr<google::protobuf::FieldMask> UpdateMaskOf(const v1::UpdateContain
             for (const char* setting : kSettings) mask.add_paths(setting);
             continue;
         }
-        if (!google::protobuf::util::FieldMaskUtil::GetFieldDescriptors(
-                v1::Container::descriptor(), path, nullptr)) {
+        if (!google::protobuf::util::FieldMaskUtil::GetFieldDescriptors(v1::Container::descriptor(),
+                                                                        path, nullptr)) {
             return absl::InvalidArgumentError(
                 absl::StrCat("update_mask: '", path, "' is no field of Container"));
         }
@@ -206,7 +207,7 @@ absl::Status SoilVolumeHandlers::UpdateContainer(const v1::UpdateContainerReques
         CheckEtag(request.container().etag(), response->etag(), absl::StrCat("'", id, "'")));
 
     google::protobuf::util::FieldMaskUtil::MergeOptions replace;
-    replace.set_replace_message_fields(true);  // "material" names the whole message
+    replace.set_replace_message_fields(true);   // "material" names the whole message
     replace.set_replace_repeated_fields(true);  // and "labels" the whole map
     google::protobuf::util::FieldMaskUtil::MergeMessageTo(request.container(), mask, replace,
                                                           response);
@@ -214,8 +215,9 @@ absl::Status SoilVolumeHandlers::UpdateContainer(const v1::UpdateContainerReques
     response->set_container_id(id);
     response->set_etag(NewEtag());
     *response->mutable_update_time() = NowTimestamp();
-    return Annotate(store_.Put(EntryKind::kContainer, id, EncodeStoredRecord(*response, model), true),
-                    "container.container_id");
+    return Annotate(
+        store_.Put(EntryKind::kContainer, id, EncodeStoredRecord(*response, model), true),
+        "container.container_id");
 }
 
 }  // namespace soilvol::server

@@ -128,12 +128,13 @@ absl::Status ValidateLabel(std::string_view key, std::string_view value, std::st
         return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '.' ||
                c == '-' || (upper && c >= 'A' && c <= 'Z');
     };
-    const bool key_ok = !key.empty() && key.size() <= 63 && key[0] >= 'a' && key[0] <= 'z' &&
-                        std::all_of(key.begin(), key.end(), [&](char c) { return allowed(c, false); });
+    const bool key_ok =
+        !key.empty() && key.size() <= 63 && key[0] >= 'a' && key[0] <= 'z' &&
+        std::all_of(key.begin(), key.end(), [&](char c) { return allowed(c, false); });
     if (!key_ok) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            AbslView(field), ": key '", AbslView(key.substr(0, 80)),
-            "' must be 1-63 of [a-z0-9_.-] starting with a letter"));
+        return absl::InvalidArgumentError(
+            absl::StrCat(AbslView(field), ": key '", AbslView(key.substr(0, 80)),
+                         "' must be 1-63 of [a-z0-9_.-] starting with a letter"));
     }
     if (value.size() > 63 ||
         !std::all_of(value.begin(), value.end(), [&](char c) { return allowed(c, true); })) {
@@ -151,23 +152,25 @@ std::string RecordPageToken(std::int64_t last_id) {
 absl::StatusOr<std::optional<std::int64_t>> ParseRecordPageToken(std::string_view page_token) {
     if (page_token.empty()) return std::nullopt;
     std::string decoded;
-    std::int64_t id = 0;
     if (page_token.size() > 64 || !absl::WebSafeBase64Unescape(AbslView(page_token), &decoded) ||
         !absl::StartsWith(decoded, AbslView(kRecordTokenPrefix)) ||
-        !absl::SimpleAtoi(absl::string_view(decoded).substr(kRecordTokenPrefix.size()), &id) ||
-        id <= 0) {
+        !ParseRecordId(std::string_view(decoded).substr(kRecordTokenPrefix.size()), "page_token")
+             .ok()) {
         return absl::InvalidArgumentError(
             "page_token: is not a next_page_token of this list; start again without one");
     }
-    return id;
+    return *ParseRecordId(std::string_view(decoded).substr(kRecordTokenPrefix.size()), "");
 }
 
 absl::StatusOr<std::int64_t> ParseRecordId(std::string_view text, std::string_view field) {
     std::int64_t id = 0;
-    if (text.empty() || text.size() > 19 || text.front() == '+' || text.front() == '-' ||
-        !absl::SimpleAtoi(AbslView(text), &id) || id <= 0) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            AbslView(field), ": '", AbslView(text.substr(0, 40)), "' is not an estimate id (a positive integer)"));
+    const bool digits =
+        std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
+    if (text.empty() || text.size() > 19 || !digits || !absl::SimpleAtoi(AbslView(text), &id) ||
+        id <= 0) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(AbslView(field), ": '", AbslView(text.substr(0, 40)),
+                         "' is not an estimate id (a positive integer)"));
     }
     return id;
 }

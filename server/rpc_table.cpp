@@ -53,6 +53,24 @@ std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& h) {
     };
 }
 
+std::map<std::string, StreamRpc> MakeStreamTable(SoilVolumeHandlers& handlers) {
+    StreamRpc watch;
+    watch.new_request = [] { return std::make_unique<v1::WatchEstimatesRequest>(); };
+    watch.start = [&handlers](const google::protobuf::Message& request,
+                              std::function<bool(const google::protobuf::Message*)> deliver,
+                              std::function<void(const absl::Status&)> ended) {
+        return handlers.WatchEstimates(
+            static_cast<const v1::WatchEstimatesRequest&>(request),
+            [deliver = std::move(deliver)](const v1::Estimate* estimate) {
+                return deliver(estimate);
+            },
+            std::move(ended));
+    };
+    watch.id_field = "estimate_id";
+    watch.resume_field = "after_estimate_id";
+    return {{"WatchEstimates", std::move(watch)}};
+}
+
 absl::Status CheckRpcTable(const std::map<std::string, Rpc>& table,
                            const google::protobuf::ServiceDescriptor& service) {
     for (int i = 0; i < service.method_count(); ++i) {

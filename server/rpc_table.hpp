@@ -22,6 +22,25 @@ struct Rpc {
         call;
 };
 
+/// One server-streaming RPC with its messages erased: gRPC writes what it delivers, REST sends
+/// it as Server-Sent Events.
+struct StreamRpc {
+    std::function<std::unique_ptr<google::protobuf::Message>()> new_request;
+    /// Starts the stream: `deliver` gets each message (null: a heartbeat; false ends the
+    /// stream), `ended` why the server ended it. Returns the function that stops it.
+    std::function<absl::StatusOr<std::function<void()>>(
+        const google::protobuf::Message& request,
+        std::function<bool(const google::protobuf::Message*)> deliver,
+        std::function<void(const absl::Status&)> ended)>
+        start;
+    /// The field of each message that names it for a resume (SSE event ids), and the request
+    /// field a resume sets (from Last-Event-ID).
+    std::string id_field, resume_field;
+};
+
+/// Every server-streaming RPC by name ("WatchEstimates").
+std::map<std::string, StreamRpc> MakeStreamTable(SoilVolumeHandlers& handlers);
+
 /// Every unary RPC of soilvol.v1.SoilVolume by name ("EstimateVolume"), calling `handlers`.
 std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& handlers);
 

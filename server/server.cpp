@@ -20,6 +20,7 @@
 #include "server/http_gateway.hpp"
 #include "server/logging.hpp"
 #include "server/metrics.hpp"
+#include "server/records/estimate_feed.hpp"
 #include "server/records/recorder.hpp"
 #include "server/rpc_table.hpp"
 #include "server/soilvol_handlers.hpp"
@@ -34,6 +35,7 @@ struct Server::Parts {
     std::unique_ptr<EntryStore> store;
     std::unique_ptr<RecordStore> records;
     std::unique_ptr<EstimateRecorder> recorder;  // after records: stops before it closes
+    std::unique_ptr<EstimateFeed> feed;          // after the recorder it waits on
     Metrics metrics;
     std::unique_ptr<WorkerPool> pool;
     std::unique_ptr<Dispatcher> dispatcher;
@@ -169,8 +171,9 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
         recording.retention.max_age =
             std::chrono::seconds(static_cast<long long>(o.records_max_age_days * 86400.0));
         p.recorder = std::make_unique<EstimateRecorder>(*p.records, recording);
+        p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateFeed::Config{});
     }
-    p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get());
+    p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get());
     p.rpcs = MakeRpcTable(*p.handlers);
     SoilVolumeHandlers* handlers = p.handlers.get();
     p.health = std::make_unique<HealthService>([handlers] { return handlers->CheckReady().ok(); });
@@ -202,8 +205,15 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     http.metrics = MetricsAccessOf(o.metrics);
     http.probe_address = o.probe_address;
     HealthService* health = p.health.get();
+    std::map<std::string, StreamRpc> streams = MakeStreamTable(*p.handlers);
+    for (const HttpRoute& route : *routes) {  // a route nothing serves would be a 500
+        if (p.rpcs.count(route.method) == 0 && streams.count(route.method) == 0) {
+            return absl::InternalError(
+                absl::StrCat("REST route ", route.pattern, " (", route.method, ") has no handler"));
+        }
+    }
     p.gateway = std::make_unique<HttpGateway>(
-        http, p.rpcs, *std::move(routes), *p.dispatcher, p.metrics, [health] {
+        http, p.rpcs, std::move(streams), *std::move(routes), *p.dispatcher, p.metrics, [health] {
             return health->StatusOf("") == grpc::health::v1::HealthCheckResponse::SERVING;
         });
 
@@ -258,6 +268,9 @@ void Server::Shutdown() {
     const auto deadline = Clock::now() + grace;
     p.health->BeginShutdown();
     p.gateway->BeginShutdown();
+    // Watches never end by themselves: end them (UNAVAILABLE; clients resume elsewhere) so
+    // that the transports need not wait for them.
+    if (p.feed != nullptr) p.feed->Shutdown();
     p.grpc_server->Shutdown(wall_deadline);
     const auto left = std::max(Clock::duration::zero(), deadline - Clock::now());
     Dispatcher* dispatcher = p.dispatcher.get();

@@ -53,9 +53,11 @@ absl::Status ListEntries(const EntryStore& store, EntryKind kind, const Request&
 
 }  // namespace
 
-SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder)
+SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder,
+                                       EstimateFeed* feed)
     : store_(store),
       recorder_(recorder),
+      feed_(feed),
       start_time_(NowTimestamp()),
       calibrations_(store, &DecodeCalibration),
       containers_(store, &DecodeContainer) {}

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -12,6 +13,7 @@
 #include "core/pipeline/registration.hpp"
 #include "core/stereo/reconstructor.hpp"
 #include "server/dispatcher.hpp"
+#include "server/records/estimate_feed.hpp"
 #include "server/records/recorder.hpp"
 #include "server/store/entry_cache.hpp"
 #include "server/store/entry_store.hpp"
@@ -25,9 +27,9 @@ namespace soilvol::server {
 /// errors are absl statuses whose messages name the request field at fault.
 class SoilVolumeHandlers {
   public:
-    /// `recorder` keeps estimate records; null: records are off (estimates are not kept, and
-    /// Get/ListEstimates fail with FAILED_PRECONDITION).
-    SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder);
+    /// `recorder` keeps estimate records and `feed` serves their watches; null: records are
+    /// off (estimates are not kept; Get/List/WatchEstimates fail with FAILED_PRECONDITION).
+    SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder, EstimateFeed* feed);
 
     absl::Status Calibrate(const v1::CalibrateRequest& request, v1::Calibration* response,
                            CallRecord& record);
@@ -44,8 +46,8 @@ class SoilVolumeHandlers {
                               CallRecord& record);
     absl::Status ListContainers(const v1::ListContainersRequest& request,
                                 v1::ListContainersResponse* response, CallRecord& record);
-    absl::Status UpdateContainer(const v1::UpdateContainerRequest& request,
-                                 v1::Container* response, CallRecord& record);
+    absl::Status UpdateContainer(const v1::UpdateContainerRequest& request, v1::Container* response,
+                                 CallRecord& record);
     absl::Status DeleteContainer(const v1::DeleteContainerRequest& request,
                                  v1::DeleteContainerResponse* response, CallRecord& record);
 
@@ -56,6 +58,15 @@ class SoilVolumeHandlers {
                              CallRecord& record);
     absl::Status ListEstimates(const v1::ListEstimatesRequest& request,
                                v1::ListEstimatesResponse* response, CallRecord& record);
+
+    /// WatchEstimates, free of any transport: `deliver` gets each record as the API message
+    /// (null for a heartbeat; false ends the watch), `ended` why the server ended it. The
+    /// returned function stops the watch (the client left); after it returns neither callback
+    /// runs again.
+    using WatchDeliver = std::function<bool(const v1::Estimate*)>;
+    using WatchEnded = std::function<void(const absl::Status&)>;
+    absl::StatusOr<std::function<void()>> WatchEstimates(const v1::WatchEstimatesRequest& request,
+                                                         WatchDeliver deliver, WatchEnded ended);
 
     absl::Status GetServerInfo(const v1::GetServerInfoRequest& request, v1::ServerInfo* response,
                                CallRecord& record);
@@ -144,6 +155,7 @@ class SoilVolumeHandlers {
 
     EntryStore& store_;
     EstimateRecorder* const recorder_;
+    EstimateFeed* const feed_;
     const google::protobuf::Timestamp start_time_;
     mutable EntryCache<CalibrationEntry> calibrations_;
     mutable EntryCache<ContainerEntry> containers_;

@@ -13,19 +13,26 @@ class EstimateFeed::Watch {
 
     const Spec spec_;
     std::int64_t cursor_ = 0;  ///< every matching record up to it was delivered
-    std::mutex call_mutex_;    ///< held while a callback runs, so Stop can wait it out
-    bool live_ = true;         ///< under call_mutex_
+    std::chrono::steady_clock::time_point last_sent_ = std::chrono::steady_clock::now();
+    std::mutex call_mutex_;  ///< held while a callback runs, so Stop can wait it out
+    bool live_ = true;       ///< under call_mutex_
 
     /// Delivers unless stopped; false when the watch is (now) over.
-    bool Offer(const EstimateRecord& record) {
+    /// `record` null: a heartbeat.
+    bool Offer(const EstimateRecord* record) {
         std::lock_guard<std::mutex> lock(call_mutex_);
         if (!live_) return false;
-        if (!spec_.container_id.empty() && record.container_id != spec_.container_id) return true;
+        if (record != nullptr && !spec_.container_id.empty() &&
+            record->container_id != spec_.container_id) {
+            return true;
+        }
+        last_sent_ = std::chrono::steady_clock::now();
         if (deliver_(record)) return true;
         live_ = false;
         ended_(absl::ResourceExhaustedError(
-            absl::StrCat("the watch fell behind at estimate ", record.id,
-                         "; reconnect after the last id received")));
+            record != nullptr ? absl::StrCat("the watch fell behind at estimate ", record->id,
+                                             "; reconnect after the last id received")
+                              : std::string("the watcher is gone")));
         return false;
     }
     void Close(const absl::Status& status, bool notify) {
@@ -55,17 +62,20 @@ EstimateFeed::EstimateFeed(EstimateRecorder& recorder, Config config)
     thread_ = std::thread([this] { Run(); });
 }
 
-EstimateFeed::~EstimateFeed() {
+EstimateFeed::~EstimateFeed() { Shutdown(); }
+
+void EstimateFeed::Shutdown() {
     {
         std::lock_guard<std::mutex> lock(mutex_);
+        if (stopping_) return;
         stopping_ = true;
     }
+    recorder_.WakeWaiters();  // now, not at the end of its poll
     thread_.join();
 }
 
-absl::StatusOr<std::shared_ptr<EstimateFeed::Watch>> EstimateFeed::Start(Spec spec,
-                                                                          Deliver deliver,
-                                                                          Ended ended) {
+absl::StatusOr<std::shared_ptr<EstimateFeed::Watch>> EstimateFeed::Start(Spec spec, Deliver deliver,
+                                                                         Ended ended) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return absl::UnavailableError("the server is shutting down");
     if (watches_.size() >= config_.max_watches) {
@@ -107,7 +117,7 @@ bool EstimateFeed::CatchUp(Watch& watch, std::int64_t upto) {
         if (!rows.ok()) return true;  // the store is away: try again next round
         for (const EstimateRecord& row : *rows) {
             if (row.id > upto) break;
-            if (!watch.Offer(row)) return false;
+            if (!watch.Offer(&row)) return false;
             watch.cursor_ = row.id;
         }
         if (static_cast<int>(rows->size()) < config_.batch || rows->back().id >= upto) {
@@ -122,22 +132,21 @@ void EstimateFeed::Run() {
     while (true) {
         seen_local = recorder_.WaitForNewer(seen_local, config_.poll);
         std::vector<std::shared_ptr<Watch>> watches;
+        bool stopping = false;
         {
             std::lock_guard<std::mutex> lock(mutex_);
-            if (stopping_) {
+            stopping = stopping_;
+            if (stopping) {
                 watches.swap(watches_);
             } else {
                 watches = watches_;
             }
         }
-        {
-            std::lock_guard<std::mutex> lock(mutex_);
-            if (stopping_) {
-                for (const auto& watch : watches) {
-                    watch->Close(absl::UnavailableError("the server is shutting down"), true);
-                }
-                return;
+        if (stopping) {  // the callbacks run without the feed's lock: they may call Stop
+            for (const auto& watch : watches) {
+                watch->Close(absl::UnavailableError("the server is shutting down"), true);
             }
+            return;
         }
         // What is new since the last round, every container at once.
         std::vector<EstimateRecord> fresh;
@@ -157,8 +166,12 @@ void EstimateFeed::Run() {
             }
             for (const EstimateRecord& row : fresh) {
                 if (row.id <= watch->cursor_) continue;
-                if (!watch->Offer(row)) break;
+                if (!watch->Offer(&row)) break;
                 watch->cursor_ = row.id;
+            }
+            if (watch->live() &&
+                std::chrono::steady_clock::now() - watch->last_sent_ >= config_.heartbeat) {
+                watch->Offer(nullptr);
             }
             if (!watch->live()) {
                 End(watch, absl::OkStatus());

@@ -23,17 +23,21 @@ class EstimateFeed {
   public:
     struct Config {
         std::chrono::milliseconds poll{250};
+        /// A watch that got nothing for this long gets a heartbeat (Deliver(nullptr)): SSE
+        /// sends a comment, and a departed client is noticed.
+        std::chrono::milliseconds heartbeat{15'000};
         std::size_t max_watches = 256;
         int batch = 200;  ///< records read per query
     };
-    /// Takes a record; false ends the watch (its client is gone or too slow).
-    using Deliver = std::function<bool(const EstimateRecord&)>;
+    /// Takes a record, or null for a heartbeat; false ends the watch (its client is gone or
+    /// too slow).
+    using Deliver = std::function<bool(const EstimateRecord*)>;
     /// Called once when the feed ends a watch: Unavailable at shutdown, the store's error, or
     /// ResourceExhausted for a watch whose Deliver refused a record.
     using Ended = std::function<void(const absl::Status&)>;
     struct Spec {
-        std::string container_id;               ///< "" for every container
-        std::optional<std::int64_t> after_id;   ///< resume after it; none: from now on
+        std::string container_id;              ///< "" for every container
+        std::optional<std::int64_t> after_id;  ///< resume after it; none: from now on
     };
     class Watch;
 
@@ -51,6 +55,9 @@ class EstimateFeed {
     void Stop(const std::shared_ptr<Watch>& watch);
 
     std::size_t watches() const;
+
+    /// Ends every watch (Unavailable) and refuses new ones; the destructor does it too.
+    void Shutdown();
 
   private:
     void Run();

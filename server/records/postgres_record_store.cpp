@@ -72,8 +72,7 @@ class PostgresRecordStore final : public RecordStore {
         return status;
     }
 
-    absl::StatusOr<EstimateRecord> Get(const std::string& container_id,
-                                       std::int64_t id) override {
+    absl::StatusOr<EstimateRecord> Get(const std::string& container_id, std::int64_t id) override {
         std::optional<EstimateRecord> found;
         SOILVOL_RETURN_IF_ERROR(Run("get", [&](pqxx::work& work) {
             const pqxx::result rows = work.exec_params(
@@ -99,11 +98,11 @@ class PostgresRecordStore final : public RecordStore {
             ascending ? "ASC" : "DESC", " LIMIT $6");
         std::vector<EstimateRecord> out;
         SOILVOL_RETURN_IF_ERROR(Run("list", [&](pqxx::work& work) {
-            const pqxx::result rows = work.exec_params(
-                sql, query.after_id.value_or(0),
-                query.before_id.value_or(std::numeric_limits<std::int64_t>::max()),
-                query.start_time_us, query.end_time_us, query.container_id,
-                static_cast<std::int64_t>(query.limit));
+            const pqxx::result rows =
+                work.exec_params(sql, query.after_id.value_or(0),
+                                 query.before_id.value_or(std::numeric_limits<std::int64_t>::max()),
+                                 query.start_time_us, query.end_time_us, query.container_id,
+                                 static_cast<std::int64_t>(query.limit));
             for (const pqxx::row& row : rows) out.push_back(RecordFrom(row, query.with_payload));
         }));
         return out;
@@ -116,9 +115,9 @@ class PostgresRecordStore final : public RecordStore {
             const std::int64_t oldest =
                 now_us -
                 std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count();
-            deleted += work.exec_params("DELETE FROM soilvol_estimates WHERE create_time_us < $1",
-                                        oldest)
-                           .affected_rows();
+            deleted +=
+                work.exec_params("DELETE FROM soilvol_estimates WHERE create_time_us < $1", oldest)
+                    .affected_rows();
             deleted += work.exec_params(
                                "DELETE FROM soilvol_estimates WHERE id IN (SELECT id FROM "
                                "(SELECT id, ROW_NUMBER() OVER (PARTITION BY container_id ORDER "

@@ -33,8 +33,18 @@ absl::StatusOr<std::int64_t> EstimateRecorder::Record(EstimateRecord record) {
 
 std::int64_t EstimateRecorder::WaitForNewer(std::int64_t seen, std::chrono::milliseconds timeout) {
     std::unique_lock<std::mutex> lock(mutex_);
-    committed_.wait_for(lock, timeout, [&] { return newest_ > seen || stopping_; });
+    const std::uint64_t wakes = wakes_;
+    committed_.wait_for(lock, timeout,
+                        [&] { return newest_ > seen || stopping_ || wakes_ != wakes; });
     return newest_;
+}
+
+void EstimateRecorder::WakeWaiters() {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        ++wakes_;
+    }
+    committed_.notify_all();
 }
 
 EstimateRecorder::Stats EstimateRecorder::stats() const {
@@ -45,7 +55,8 @@ EstimateRecorder::Stats EstimateRecorder::stats() const {
 void EstimateRecorder::Run() {
     std::unique_lock<std::mutex> lock(mutex_);
     while (true) {
-        const auto idle = std::max<std::chrono::seconds>(config_.prune_every, std::chrono::seconds(1));
+        const auto idle =
+            std::max<std::chrono::seconds>(config_.prune_every, std::chrono::seconds(1));
         work_.wait_for(lock, idle, [&] { return stopping_ || !queue_.empty(); });
         if (queue_.empty()) {
             if (stopping_) return;

@@ -36,6 +36,8 @@ class EstimateRecorder {
     /// Blocks until this process commits a record with an id above `seen`, or `timeout`
     /// passes; the newest id it committed.
     std::int64_t WaitForNewer(std::int64_t seen, std::chrono::milliseconds timeout);
+    /// Returns every WaitForNewer now (a feed shutting down).
+    void WakeWaiters();
 
     RecordStore& store() const { return store_; }
 
@@ -60,6 +62,7 @@ class EstimateRecorder {
     std::deque<Pending> queue_;
     bool stopping_ = false;
     std::int64_t newest_ = 0;
+    std::uint64_t wakes_ = 0;
     Stats stats_;
     std::chrono::steady_clock::time_point last_prune_;
     std::thread thread_;

@@ -124,8 +124,7 @@ class SqliteRecordStore final : public RecordStore {
         return status;
     }
 
-    absl::StatusOr<EstimateRecord> Get(const std::string& container_id,
-                                       std::int64_t id) override {
+    absl::StatusOr<EstimateRecord> Get(const std::string& container_id, std::int64_t id) override {
         std::lock_guard<std::mutex> lock(mutex_);
         Statement select(db_, absl::StrCat("SELECT ", kColumns,
                                            " FROM estimates WHERE id = ?1 AND container_id = ?2"));
@@ -143,7 +142,8 @@ class SqliteRecordStore final : public RecordStore {
     absl::StatusOr<std::vector<EstimateRecord>> List(const RecordQuery& query) override {
         const bool ascending = query.after_id.has_value();
         std::string sql = absl::StrCat(
-            "SELECT ", query.with_payload ? kColumns : "id, container_id, create_time_us, request_id",
+            "SELECT ",
+            query.with_payload ? kColumns : "id, container_id, create_time_us, request_id",
             " FROM estimates WHERE id > ?1 AND id < ?2 AND create_time_us >= ?3 AND "
             "create_time_us < ?4");
         if (!query.container_id.empty()) sql += " AND container_id = ?5";
@@ -171,8 +171,9 @@ class SqliteRecordStore final : public RecordStore {
         std::lock_guard<std::mutex> lock(mutex_);
         Statement old(db_, "DELETE FROM estimates WHERE create_time_us < ?1");
         SOILVOL_RETURN_IF_ERROR(old.Prepared("prune by age"));
-        old.Bind(1, now_us - std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age)
-                                 .count());
+        old.Bind(
+            1,
+            now_us - std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count());
         SOILVOL_RETURN_IF_ERROR(old.Step("prune by age").status());
         std::int64_t deleted = sqlite3_changes(db_);
         Statement surplus(db_,
@@ -221,14 +222,13 @@ class SqliteRecordStore final : public RecordStore {
 absl::StatusOr<std::unique_ptr<RecordStore>> OpenSqliteRecordStore(
     const std::filesystem::path& path) {
     sqlite3* db = nullptr;
-    const int code = sqlite3_open_v2(path.c_str(), &db,
-                                     SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE |
-                                         SQLITE_OPEN_NOMUTEX,
-                                     nullptr);
+    const int code =
+        sqlite3_open_v2(path.c_str(), &db,
+                        SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr);
     if (code != SQLITE_OK) {
-        const absl::Status status = absl::UnavailableError(absl::StrCat(
-            "records (sqlite): cannot open ", path.string(), ": ",
-            db != nullptr ? sqlite3_errmsg(db) : sqlite3_errstr(code)));
+        const absl::Status status = absl::UnavailableError(
+            absl::StrCat("records (sqlite): cannot open ", path.string(), ": ",
+                         db != nullptr ? sqlite3_errmsg(db) : sqlite3_errstr(code)));
         sqlite3_close_v2(db);
         return status;
     }

@@ -80,6 +80,27 @@ class Cli(unittest.TestCase):
                               out["material"]["densityKgM3"]), ("Truck 9", "sand", 1700))
             shown = self.run_cli("estimate", "--id", "cli-box", "--cloud", full).stdout
             self.assertIn("underloaded", shown)
+            # Records: listed, read back, and watched as new ones arrive.
+            listed = json.loads(self.run_cli("--json", "estimates", "list", "--container",
+                                             "cli-box").stdout)
+            ids = [e["estimateId"] for e in listed["estimates"]]
+            self.assertEqual(ids[-1], est["estimateId"])
+            got = json.loads(self.run_cli("--json", "estimates", "get", "cli-box",
+                                          est["estimateId"]).stdout)
+            self.assertEqual(got["result"]["volumeM3"], est["volumeM3"])
+            self.assertIn("underloaded", self.run_cli("estimates", "list").stdout)
+            watcher = subprocess.Popen(
+                [CLI_BIN, "--server", self.server.grpc_target, "--json", "estimates", "watch",
+                 "--container", "cli-box", "--after", ids[-1], "--count", "2"],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            newest = json.loads(self.run_cli("--json", "estimate", "--id", "cli-box", "--cloud",
+                                             full).stdout)
+            out, err = watcher.communicate(timeout=60)
+            self.assertEqual(watcher.returncode, 0, err)
+            seen = [json.loads(line)["estimateId"] for line in out.splitlines()]
+            # After the oldest: the one recorded since (caught up), then the live one.
+            self.assertEqual(ids, [ids[0], est["estimateId"]])
+            self.assertEqual(seen, [ids[0], newest["estimateId"]])
             stale = self.run_cli("containers", "update", "cli-box", "--etag", "0" * 16,
                                  "--display-name", "x", check=False)
             self.assertEqual(stale.returncode, 1)

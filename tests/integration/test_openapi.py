@@ -60,6 +60,8 @@ class OpenApi(unittest.TestCase):
             with self.subTest(operation):
                 concrete = path.replace("{container_id}", "openapi-probe").replace(
                     "{calibration_id}", "openapi-probe")
+                if concrete.endswith(":watch"):  # a stream: a bad id answers at once
+                    concrete += "?afterEstimateId=probe"
                 body = {} if verb in ("post", "put", "patch") else None
                 status, answer = self.server.rest(verb.upper(), concrete, body)
                 self.assertNotEqual(status, 405, (verb, concrete, answer))

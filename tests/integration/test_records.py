@@ -3,6 +3,8 @@ directory) and PostgreSQL (the server ctest starts, $SOILVOL_TEST_POSTGRES_URL; 
 PostgreSQL class is skipped, except under CI=true). Covers GetEstimate / ListEstimates over
 gRPC and REST, paging, time filters, skip_record, two replicas sharing one database, and that
 an answered estimate's record survives kill -9."""
+import http.client
+import json
 import os
 import signal
 import sys
@@ -29,6 +31,41 @@ def cloud(data):
 def postgres_url():
     pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
     return pattern.replace("{db}", "postgres") if pattern else ""
+
+
+class SseReader:
+    """A Server-Sent Events client on http.client: next_event() -> (id, event, data)."""
+
+    def __init__(self, port, path, headers=None):
+        self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+        self.conn.request("GET", path, headers={"Accept": "text/event-stream", **(headers or {})})
+        self.response = self.conn.getresponse()
+        self.status = self.response.status
+        self.content_type = self.response.getheader("Content-Type", "")
+
+    def next_event(self):
+        event_id, name, data = "", "message", []
+        while True:
+            line = self.response.readline().decode()
+            if not line:
+                raise EOFError("the stream ended")
+            line = line.rstrip("\n")
+            if not line:
+                if data:
+                    return event_id, name, "\n".join(data)
+                continue
+            if line.startswith(":"):
+                continue
+            field, _, value = line.partition(": ")
+            if field == "id":
+                event_id = value
+            elif field == "event":
+                name = value
+            elif field == "data":
+                data.append(value)
+
+    def close(self):
+        self.conn.close()
 
 
 class RecordsContract:
@@ -174,6 +211,40 @@ class RecordsContract:
                 container_id=cid, estimate_id=written.estimate_id), timeout=30)
             self.assertEqual(got.result.volume_m3, written.volume_m3)
             channel.close()
+
+    def test_watch_delivers_within_a_second_and_resumes_over_sse_on_another_replica(self):
+        cid = self.prefix + "-w"
+        self.register(cid)
+        watch = self.stub.WatchEstimates(pb.WatchEstimatesRequest(container_id=cid), timeout=120)
+        watch.initial_metadata()  # the watch is on
+        first = self.estimate(cid, 0.1, omit_heightmap=True)
+        answered = time.monotonic()
+        got = next(watch)
+        self.assertLess(time.monotonic() - answered, 1.0)
+        self.assertEqual(got.estimate_id, first.estimate_id)
+        self.assertEqual(got.result.volume_m3, first.volume_m3)
+        self.assertFalse(got.result.HasField("heightmap"))  # BASIC by default
+        watch.cancel()
+        missed = [self.estimate(cid, 0.1, omit_heightmap=True).estimate_id for _ in range(3)]
+        with self.replica() as other:
+            events = SseReader(other.http_port, f"/v1/estimates:watch?containerId={cid}",
+                               {"Last-Event-ID": first.estimate_id})
+            self.assertEqual(events.status, 200)
+            self.assertTrue(events.content_type.startswith("text/event-stream"))
+            # The resume: everything after the last id seen, in order.
+            self.assertEqual([events.next_event()[0] for _ in missed], missed)
+            # Live, written by the first replica: seen through the shared records.
+            live = self.estimate(cid, 0.1, omit_heightmap=True)
+            answered = time.monotonic()
+            event_id, name, data = events.next_event()
+            self.assertLess(time.monotonic() - answered, 1.0)
+            self.assertEqual((event_id, name), (live.estimate_id, "estimate"))
+            self.assertEqual(json.loads(data)["result"]["volumeM3"], live.volume_m3)
+            events.close()
+            # Bad requests are plain HTTP errors, before any stream.
+            bad = SseReader(other.http_port, "/v1/estimates:watch?afterEstimateId=x")
+            self.assertEqual(bad.status, 400)
+            bad.close()
 
     def test_answered_estimates_survive_kill_9(self):
         cid = self.prefix + "-k"

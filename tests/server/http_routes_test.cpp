@@ -37,6 +37,7 @@ TEST(HttpRoutes, AnnotationsGiveTheDocumentedContract) {
         "PATCH /v1/containers/{container.container_id} UpdateContainer",
         "GET /v1/containers/{container_id}/estimates ListEstimates",
         "GET /v1/containers/{container_id}/estimates/{estimate_id} GetEstimate",
+        "GET /v1/estimates:watch WatchEstimates",
         "POST /v1/containers/{container_id}:estimate EstimateVolume",
         "GET /v1/info GetServerInfo",
     };
@@ -119,8 +120,8 @@ TEST_F(BindRequestTest, PatchBodyIsTheResourceAndItsFieldsTheMask) {
     std::string body =
         R"({"displayName": "T7", "material": {"densityKgM3": 1800, "name": "clay"},
             "labels": {"a": "b"}, "loadTargets": null, "unknownField": 1})";
-    ASSERT_TRUE(BindRequest(*match->route, match->fields, "", "application/json", body, &request)
-                    .ok());
+    ASSERT_TRUE(
+        BindRequest(*match->route, match->fields, "", "application/json", body, &request).ok());
     EXPECT_EQ(request.container().container_id(), "truck-7");
     EXPECT_EQ(request.container().display_name(), "T7");
     EXPECT_EQ(request.container().material().density_kg_m3(), 1800.0);

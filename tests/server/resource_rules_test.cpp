@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <set>
 #include <string>
 #include <vector>
@@ -104,13 +105,36 @@ TEST(ResourceRules, DisplayNamesAndLabels) {
     EXPECT_FALSE(ValidateDisplayName("a\nb", "display_name").ok());
     EXPECT_TRUE(ValidateLabel("site", "north-pit_2", "labels").ok());
     EXPECT_TRUE(ValidateLabel("fleet.kind", "", "labels").ok());
-    for (const std::string& bad_key : std::vector<std::string>{"", "Site", "1st", "a b", std::string(64, 'a')}) {
+    for (const std::string& bad_key :
+         std::vector<std::string>{"", "Site", "1st", "a b", std::string(64, 'a')}) {
         const absl::Status status = ValidateLabel(bad_key, "v", "labels");
         EXPECT_TRUE(absl::IsInvalidArgument(status)) << bad_key;
         EXPECT_EQ(FieldOf(status.message()), "labels") << status.message();
     }
-    for (const std::string& bad_value : std::vector<std::string>{"a b", "x/y", std::string(64, 'v')}) {
+    for (const std::string& bad_value :
+         std::vector<std::string>{"a b", "x/y", std::string(64, 'v')}) {
         EXPECT_TRUE(absl::IsInvalidArgument(ValidateLabel("k", bad_value, "labels"))) << bad_value;
+    }
+}
+
+TEST(ResourceRules, RecordIdsAndTokensRefuseHostileText) {
+    EXPECT_EQ(*ParseRecordId("42", "estimate_id"), 42);
+    EXPECT_EQ(*ParseRecordId("9223372036854775807", "estimate_id"), INT64_MAX);
+    for (const std::string& bad : std::vector<std::string>{
+             "", "0", "-1", "+1", " 1", "1 ", "1e3", "0x10", "abc", "99999999999999999999",
+             std::string(1000, '9'), std::string("1\0", 2)}) {
+        const absl::StatusOr<std::int64_t> id = ParseRecordId(bad, "estimate_id");
+        EXPECT_TRUE(absl::IsInvalidArgument(id.status())) << bad;
+        EXPECT_EQ(FieldOf(id.status().message()), "estimate_id");
+    }
+    EXPECT_FALSE(ParseRecordPageToken("")->has_value());
+    EXPECT_EQ(**ParseRecordPageToken(RecordPageToken(17)), 17);
+    for (const std::string& bad :
+         std::vector<std::string>{"x", "bm9wZQ", RecordPageToken(0), RecordPageToken(-5),
+                                  std::string(100, 'A'), "%%%", std::string("\xff\x00", 2)}) {
+        const auto token = ParseRecordPageToken(bad);
+        EXPECT_TRUE(absl::IsInvalidArgument(token.status())) << bad;
+        EXPECT_EQ(FieldOf(token.status().message()), "page_token");
     }
 }
 

@@ -21,7 +21,7 @@ class RpcTableTest : public ::testing::Test {
         auto opened = EntryStore::Open(dir_.path());
         ASSERT_TRUE(opened.ok()) << opened.status();
         store_ = *std::move(opened);
-        handlers_ = std::make_unique<SoilVolumeHandlers>(*store_, nullptr);
+        handlers_ = std::make_unique<SoilVolumeHandlers>(*store_, nullptr, nullptr);
     }
 
     ScratchDir dir_;
@@ -33,10 +33,23 @@ TEST_F(RpcTableTest, EveryUnaryRpcOfTheServiceHasAHandler) {
     const std::map<std::string, Rpc> table = MakeRpcTable(*handlers_);
     EXPECT_TRUE(CheckRpcTable(table, Api()).ok()) << CheckRpcTable(table, Api());
     int unary = 0;
+    int server_streaming = 0;
     for (int i = 0; i < Api().method_count(); ++i) {
-        unary += Api().method(i)->client_streaming() ? 0 : 1;
+        const google::protobuf::MethodDescriptor& method = *Api().method(i);
+        unary += method.client_streaming() || method.server_streaming() ? 0 : 1;
+        server_streaming += !method.client_streaming() && method.server_streaming() ? 1 : 0;
     }
     EXPECT_EQ(static_cast<int>(table.size()), unary);
+    // Every server-streaming RPC is in the stream table (gRPC writes, REST sends SSE).
+    const std::map<std::string, StreamRpc> streams = MakeStreamTable(*handlers_);
+    EXPECT_EQ(static_cast<int>(streams.size()), server_streaming);
+    for (const auto& [name, stream] : streams) {
+        const google::protobuf::MethodDescriptor* method = Api().FindMethodByName(name);
+        ASSERT_NE(method, nullptr) << name;
+        EXPECT_EQ(stream.new_request()->GetDescriptor(), method->input_type());
+        EXPECT_NE(method->output_type()->FindFieldByName(stream.id_field), nullptr);
+        EXPECT_NE(method->input_type()->FindFieldByName(stream.resume_field), nullptr);
+    }
 }
 
 TEST_F(RpcTableTest, AMissingHandlerIsNamed) {

@@ -102,8 +102,7 @@ TEST(LoadStatus, RulesNameTheFieldAtFault) {
               std::string::npos);
     LoadTargets carryback = VolumeTarget(1.0);
     carryback.carryback_m3 = -1.0;
-    EXPECT_NE(message(Material{}, carryback).find("load_targets.carryback_m3"),
-              std::string::npos);
+    EXPECT_NE(message(Material{}, carryback).find("load_targets.carryback_m3"), std::string::npos);
 }
 
 }  // namespace

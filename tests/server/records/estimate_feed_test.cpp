@@ -17,11 +17,16 @@ struct Inbox {
     std::condition_variable changed;
     std::vector<EstimateRecord> records;
     std::optional<absl::Status> ended;
+    int heartbeats = 0;
 
     EstimateFeed::Deliver Deliver() {
-        return [this](const EstimateRecord& record) {
+        return [this](const EstimateRecord* record) {
             std::lock_guard<std::mutex> lock(mutex);
-            records.push_back(record);
+            if (record == nullptr) {
+                ++heartbeats;
+                return true;
+            }
+            records.push_back(*record);
             changed.notify_all();
             return true;
         };
@@ -86,6 +91,25 @@ TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
     EXPECT_EQ(feed.watches(), 1u);
 }
 
+TEST_P(EstimateFeedTest, QuietWatchesGetHeartbeats) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    EstimateFeed::Config config;
+    config.poll = 20ms;
+    config.heartbeat = 100ms;
+    EstimateFeed feed(recorder, config);
+    Inbox inbox;
+    ASSERT_TRUE(feed.Start({"", std::nullopt}, inbox.Deliver(), inbox.Ended()).ok());
+    std::this_thread::sleep_for(600ms);
+    std::lock_guard<std::mutex> lock(inbox.mutex);
+    EXPECT_GE(inbox.heartbeats, 3);
+    EXPECT_LE(inbox.heartbeats, 7);
+    EXPECT_TRUE(inbox.records.empty());
+}
+
 TEST_P(EstimateFeedTest, AResumedWatchCatchesUpThenGoesLiveAndSeesOtherReplicas) {
     TestDatabase db(GetParam());
     SOILVOL_NEED_DATABASE(db);
@@ -128,16 +152,18 @@ TEST_P(EstimateFeedTest, SlowWatchesEndAndShutdownEndsTheRest) {
         EstimateFeed::Config config;
         config.max_watches = 2;
         EstimateFeed feed(recorder, config);
-        ASSERT_TRUE(feed.Start({"", 0}, [](const EstimateRecord&) { return false; },
-                               slow_ended.Ended())
-                        .ok());
+        ASSERT_TRUE(
+            feed.Start(
+                    {"", 0}, [](const EstimateRecord*) { return false; }, slow_ended.Ended())
+                .ok());
         ASSERT_TRUE(feed.Start({"", std::nullopt}, rest.Deliver(), rest.Ended()).ok());
         EXPECT_TRUE(absl::IsResourceExhausted(
             feed.Start({"", std::nullopt}, rest.Deliver(), rest.Ended()).status()));
         ASSERT_TRUE(recorder.Record(Draft("a")).ok());
         ASSERT_TRUE(rest.WaitFor(1, 5s));
         std::unique_lock<std::mutex> lock(slow_ended.mutex);
-        ASSERT_TRUE(slow_ended.changed.wait_for(lock, 5s, [&] { return slow_ended.ended.has_value(); }));
+        ASSERT_TRUE(
+            slow_ended.changed.wait_for(lock, 5s, [&] { return slow_ended.ended.has_value(); }));
         EXPECT_TRUE(absl::IsResourceExhausted(*slow_ended.ended));
     }
     ASSERT_TRUE(rest.ended.has_value());

@@ -12,7 +12,8 @@
 namespace soilvol::server {
 namespace {
 
-EstimateRecord Draft(const std::string& container, std::int64_t time_us, std::string payload = "p") {
+EstimateRecord Draft(const std::string& container, std::int64_t time_us,
+                     std::string payload = "p") {
     EstimateRecord record;
     record.container_id = container;
     record.create_time_us = time_us;
@@ -52,8 +53,8 @@ TEST_P(RecordStoreTest, AppendGivesIncreasingIdsAndGetReturnsTheRecord) {
     // Another container's id, or none, is not found.
     EXPECT_TRUE(absl::IsNotFound(store->Get("b", batch[0].id).status()));
     EXPECT_TRUE(absl::IsNotFound(store->Get("a", 999999).status()));
-    EXPECT_EQ(store->kind(), GetParam() == "sqlite" ? std::string("sqlite")
-                                                    : std::string("postgresql"));
+    EXPECT_EQ(store->kind(),
+              GetParam() == "sqlite" ? std::string("sqlite") : std::string("postgresql"));
 }
 
 TEST_P(RecordStoreTest, ListsNewestFirstByContainerAndTimeAndCatchesUpOldestFirst) {
@@ -173,8 +174,8 @@ TEST(RecordStore, UrlsNameTheirBackendAndBadOnesAreRefused) {
     EXPECT_TRUE(absl::IsInvalidArgument(bad.status()));
     EXPECT_EQ(std::string(bad.status().message()).find("secret"), std::string::npos);
     EXPECT_NE(std::string(bad.status().message()).find("records-url"), std::string::npos);
-    const auto missing = OpenRecordStore("sqlite:" + (dir.path() / "no/such/dir/r.db").string(),
-                                         dir.path());
+    const auto missing =
+        OpenRecordStore("sqlite:" + (dir.path() / "no/such/dir/r.db").string(), dir.path());
     EXPECT_TRUE(absl::IsUnavailable(missing.status())) << missing.status();
     // A file that is not a database: refused, not a crash.
     const std::filesystem::path junk = dir.path() / "junk.sqlite3";

@@ -78,8 +78,8 @@ class TestDatabase {
     ScratchDir scratch_;
 };
 
-#define SOILVOL_NEED_DATABASE(db)   \
-    if ((db).Unavailable()) {        \
+#define SOILVOL_NEED_DATABASE(db)        \
+    if ((db).Unavailable()) {            \
         GTEST_SKIP() << "no PostgreSQL"; \
     }
 
