@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <mutex>
+#include <regex>
 
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
@@ -11,9 +12,12 @@
 #include "google/protobuf/util/json_util.h"
 #include "proto/openapi_document.hpp"
 #include "server/call_ids.hpp"
+#include "server/dashboard_files.hpp"
 #include "server/logging.hpp"
 #include "server/multipart.hpp"
+#include "server/proto_convert.hpp"
 #include "server/status_map.hpp"
+#include "server/store/absl_view.hpp"
 
 namespace soilvol::server {
 namespace {
@@ -59,6 +63,14 @@ HttpResponse JsonResponse(int status, std::string body) {
     response.status = status;
     response.body = std::move(body);
     return response;
+}
+
+/// The ids of a heightmap.png path; nullopt for any other path.
+std::optional<std::pair<std::string, std::string>> HeightmapPngIds(const std::string& path) {
+    static const std::regex kPath(R"(^/v1/containers/([^/:]+)/estimates/([^/:]+)/heightmap\.png$)");
+    std::smatch groups;
+    if (!std::regex_match(path, groups, kPath)) return std::nullopt;
+    return std::make_pair(groups[1].str(), groups[2].str());
 }
 
 /// JSON everywhere; a binary or multipart body where the route takes the whole request.
@@ -247,7 +259,17 @@ std::optional<HttpResponse> HttpGateway::Admit(const HttpRequest& head) const {
             origin);
     }
     if (head.method == "OPTIONS" || head.path == "/healthz" || head.path == "/readyz" ||
-        head.path == "/metrics" || head.path == "/openapi.json") {
+        head.path == "/metrics" || head.path == "/openapi.json" || head.path == "/" ||
+        head.path == "/index.html" || head.path == "/favicon.ico" ||
+        absl::StartsWith(head.path, "/dashboard/")) {
+        return std::nullopt;
+    }
+    if (head.method == "GET" && HeightmapPngIds(head.path)) {
+        CallContext call = ContextOf(head, "GetEstimate");
+        if (absl::Status allowed = dispatcher_.Authorize(call); !allowed.ok()) {
+            dispatcher_.Refuse(call, allowed);
+            return ErrorResponse(allowed, origin);
+        }
         return std::nullopt;
     }
     absl::StatusOr<RouteMatch> match = MatchRoute(routes_, head.method, head.path);
@@ -284,6 +306,41 @@ std::optional<HttpResponse> HttpGateway::Admit(const HttpRequest& head) const {
     return std::nullopt;
 }
 
+bool HttpGateway::ServeDashboard(const HttpRequest& request, HttpExchange& exchange) const {
+    constexpr std::string_view kPrefix = "/dashboard/";
+    std::string_view name;
+    if (request.path == "/favicon.ico") {  // browsers ask for it on every page: nothing here
+        HttpResponse none;
+        none.status = 204;
+        exchange.Respond(std::move(none));
+        return true;
+    }
+    if (request.path == "/" || request.path == "/index.html") {
+        name = "index.html";
+    } else if (absl::StartsWith(request.path, AbslView(kPrefix))) {
+        name = std::string_view(request.path).substr(kPrefix.size());
+    } else {
+        return false;
+    }
+    for (const DashboardFile& file : DashboardFiles()) {
+        if (file.name != name) continue;
+        HttpResponse response;
+        response.content_type = std::string(file.content_type);
+        response.body = std::string(file.body);
+        // The page's code and data come from this server only; the files change with it.
+        response.headers.Set("Content-Security-Policy",
+                             "default-src 'self'; img-src 'self' data:; style-src 'self'; "
+                             "script-src 'self'; connect-src 'self'; frame-ancestors 'none'");
+        response.headers.Set("X-Content-Type-Options", "nosniff");
+        response.headers.Set("Cache-Control", "no-cache");
+        exchange.Respond(std::move(response));
+        return true;
+    }
+    exchange.Respond(ErrorResponse(
+        absl::NotFoundError(absl::StrCat("no dashboard file '", AbslView(name), "'")), ""));
+    return true;
+}
+
 bool HttpGateway::ServeOperational(const HttpRequest& request, bool probe,
                                    HttpExchange& exchange) const {
     if (request.method != "GET") return false;
@@ -299,6 +356,7 @@ bool HttpGateway::ServeOperational(const HttpRequest& request, bool probe,
             ready ? 200 : 503, ready ? R"({"status":"SERVING"})" : R"({"status":"NOT_SERVING"})"));
         return true;
     }
+    if (!probe && ServeDashboard(request, exchange)) return true;
     if (request.path == "/openapi.json" && !probe) {  // the API's description, not its data
         HttpResponse response = JsonResponse(200, std::string(proto::OpenApiDocument()));
         ApplyCors(request.headers.Get("Origin"), response.headers);
@@ -330,12 +388,63 @@ void HttpGateway::Handle(HttpRequest request, std::shared_ptr<HttpExchange> exch
         return exchange->Respond(std::move(response));
     }
     if (ServeOperational(request, false, *exchange)) return;
+    if (const auto png = HeightmapPngIds(request.path); png && request.method == "GET") {
+        return ServeHeightmapPng(png->first, png->second, std::move(request), std::move(exchange));
+    }
     absl::StatusOr<RouteMatch> match = MatchRoute(routes_, request.method, request.path);
     if (!match.ok()) return exchange->Respond(ErrorResponse(match.status(), origin));
     if (const auto stream = streams_.find(match->route->method); stream != streams_.end()) {
         return ServeStream(stream->second, *match, std::move(request), std::move(exchange));
     }
     ServeRpc(*match, std::move(request), std::move(exchange));
+}
+
+void HttpGateway::ServeHeightmapPng(const std::string& container_id, const std::string& estimate_id,
+                                    HttpRequest request, std::shared_ptr<HttpExchange> exchange) {
+    const std::string origin = request.headers.Get("Origin");
+    CallContext call = ContextOf(request, "GetEstimate");
+    call.cancelled = [exchange] { return exchange->Gone(); };
+    int cell_px = 12;
+    absl::StatusOr<std::vector<std::pair<std::string, std::string>>> query =
+        ParseQuery(request.query);
+    if (!query.ok()) return exchange->Respond(ErrorResponse(query.status(), origin));
+    for (const auto& [name, value] : *query) {
+        if ((name != "cellPx" && name != "cell_px") || !absl::SimpleAtoi(value, &cell_px) ||
+            cell_px < 1 || cell_px > 64) {
+            HttpResponse bad = ErrorResponse(
+                absl::InvalidArgumentError("cell_px: the only parameter, 1 to 64 pixels a cell"),
+                origin);
+            return exchange->Respond(std::move(bad));
+        }
+    }
+    auto png = std::make_shared<std::string>();
+    const Rpc* rpc = &rpcs_.at("GetEstimate");
+    dispatcher_.Submit(
+        std::move(call),
+        [rpc, container_id, estimate_id, cell_px, png](CallRecord& record) -> absl::Status {
+            v1::GetEstimateRequest get;
+            get.set_container_id(container_id);
+            get.set_estimate_id(estimate_id);
+            get.set_view(v1::ESTIMATE_VIEW_FULL);
+            v1::Estimate estimate;
+            if (absl::Status status = rpc->call(get, &estimate, record); !status.ok()) {
+                return status;
+            }
+            absl::StatusOr<std::string> encoded = HeightmapPng(estimate.result(), cell_px);
+            if (!encoded.ok()) return encoded.status();
+            *png = *std::move(encoded);
+            return absl::OkStatus();
+        },
+        [this, exchange, png, origin](const absl::Status& status) {
+            if (!status.ok()) return exchange->Respond(ErrorResponse(status, origin));
+            HttpResponse response;
+            response.content_type = "image/png";
+            response.body = std::move(*png);
+            response.headers.Set("Cache-Control",
+                                 "private, max-age=86400");  // records never change
+            ApplyCors(origin, response.headers);
+            exchange->Respond(std::move(response));
+        });
 }
 
 void HttpGateway::ServeStream(const StreamRpc& rpc, const RouteMatch& match, HttpRequest request,

@@ -56,6 +56,13 @@ class HttpGateway {
   private:
     std::optional<HttpResponse> Admit(const HttpRequest& head) const;
     void Handle(HttpRequest request, std::shared_ptr<HttpExchange> exchange);
+    /// GET /v1/containers/{container_id}/estimates/{estimate_id}/heightmap.png[?cellPx=N]: a
+    /// record's heightmap as a colour map, for embedding elsewhere (the read scope, as
+    /// GetEstimate). Rendered on a worker.
+    void ServeHeightmapPng(const std::string& container_id, const std::string& estimate_id,
+                           HttpRequest request, std::shared_ptr<HttpExchange> exchange);
+    /// The dashboard's files at / and /dashboard/<name>; false for other paths.
+    bool ServeDashboard(const HttpRequest& request, HttpExchange& exchange) const;
     /// Health and metrics; false when `request` is not for them.
     bool ServeOperational(const HttpRequest& request, bool probe, HttpExchange& exchange) const;
     void ServeRpc(const RouteMatch& match, HttpRequest request,

@@ -6,6 +6,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
+#include "core/stereo/image_codec.hpp"
+#include "core/volume/heightmap_image.hpp"
 #include "core/volume/load_distribution.hpp"
 #include "google/protobuf/util/time_util.h"
 
@@ -300,6 +302,24 @@ google::protobuf::Timestamp NowTimestamp() {
                             std::chrono::system_clock::now().time_since_epoch())
                             .count();
     return google::protobuf::util::TimeUtil::MicrosecondsToTimestamp(micros);
+}
+
+absl::StatusOr<std::string> HeightmapPng(const v1::EstimateVolumeResponse& estimate, int cell_px) {
+    const v1::Heightmap& map = estimate.heightmap();
+    if (map.cols() == 0 || map.rows() == 0) {
+        return absl::FailedPreconditionError("the estimate was recorded without a heightmap");
+    }
+    absl::StatusOr<std::vector<float>> heights =
+        volume::UnpackHeights(map.heights_f32le(), map.cols(), map.rows());
+    if (!heights.ok()) return absl::DataLossError(heights.status().message());
+    std::optional<std::pair<double, double>> centre;
+    if (estimate.has_distribution() && map.cell_m() > 0.0) {
+        centre = std::make_pair(
+            (estimate.distribution().centre_x_m() - map.origin_x_m()) / map.cell_m(),
+            (estimate.distribution().centre_y_m() - map.origin_y_m()) / map.cell_m());
+    }
+    return stereo::EncodePng(
+        volume::RenderHeightmap(*heights, map.cols(), map.rows(), cell_px, centre));
 }
 
 absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material,

@@ -38,6 +38,11 @@ absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material, const v1::Lo
 /// seconds only, which orders nothing within a second).
 google::protobuf::Timestamp NowTimestamp();
 
+/// The estimate's heightmap as a PNG colour map with its load centre (volume::RenderHeightmap),
+/// each cell `cell_px` pixels. FailedPrecondition when the estimate holds no heightmap,
+/// DataLoss when it does not unpack.
+absl::StatusOr<std::string> HeightmapPng(const v1::EstimateVolumeResponse& estimate, int cell_px);
+
 /// Core -> proto.
 void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto);
 void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto);

@@ -166,8 +166,9 @@ absl::StatusOr<std::int64_t> ParseRecordId(std::string_view text, std::string_vi
     std::int64_t id = 0;
     const bool digits =
         std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
-    if (text.empty() || text.size() > 19 || !digits || !absl::SimpleAtoi(AbslView(text), &id) ||
-        id <= 0) {
+    // Canonical decimal only ("02" is not "2"): an id is the text the server printed.
+    if (text.empty() || text.size() > 19 || text.front() == '0' || !digits ||
+        !absl::SimpleAtoi(AbslView(text), &id) || id <= 0) {
         return absl::InvalidArgumentError(
             absl::StrCat(AbslView(field), ": '", AbslView(text.substr(0, 40)),
                          "' is not an estimate id (a positive integer)"));

@@ -14,4 +14,11 @@ struct GreyImage {
     uint8_t At(int u, int v) const { return pixels[static_cast<size_t>(v) * width + u]; }
 };
 
+/// An 8-bit RGB image, row-major, 3 bytes (r, g, b) per pixel.
+struct RgbImage {
+    int width = 0;
+    int height = 0;
+    std::vector<uint8_t> pixels;
+};
+
 }  // namespace soilvol

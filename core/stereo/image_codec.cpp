@@ -2,6 +2,7 @@
 
 #include <new>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -14,6 +15,25 @@ absl::StatusOr<GreyImage> DecodeGrey(std::string_view bytes, std::string_view fi
     absl::StatusOr<cv::Mat> grey = detail::DecodeGreyMat(bytes, field, max_side_px);
     if (!grey.ok()) return grey.status();
     return detail::ToGreyImage(*grey);
+}
+
+absl::StatusOr<std::string> EncodePng(const RgbImage& image) {
+    if (image.width <= 0 || image.height <= 0 ||
+        image.pixels.size() != static_cast<size_t>(image.width) * image.height * 3) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "image: ", image.pixels.size(), " bytes for ", image.width, "x", image.height, " RGB"));
+    }
+    try {
+        cv::Mat rgb(image.height, image.width, CV_8UC3, const_cast<uint8_t*>(image.pixels.data()));
+        cv::Mat bgr;
+        cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+        std::vector<uchar> png;
+        if (!cv::imencode(".png", bgr, png))
+            return absl::InternalError("image: PNG encoder failed");
+        return std::string(png.begin(), png.end());
+    } catch (const std::exception& e) {
+        return absl::InternalError(absl::StrCat("image: PNG encoder failed: ", e.what()));
+    }
 }
 
 absl::StatusOr<std::string> EncodePng(const GreyImage& image) {

@@ -23,5 +23,6 @@ absl::StatusOr<GreyImage> DecodeGrey(std::string_view bytes, std::string_view fi
 
 /// Lossless PNG of `image`. InvalidArgument for an empty or inconsistent image.
 absl::StatusOr<std::string> EncodePng(const GreyImage& image);
+absl::StatusOr<std::string> EncodePng(const RgbImage& image);
 
 }  // namespace soilvol::stereo

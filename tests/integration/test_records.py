@@ -7,10 +7,12 @@ import http.client
 import json
 import os
 import signal
+import struct
 import sys
 import threading
 import time
 import unittest
+import urllib.request
 import uuid
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -129,6 +131,21 @@ class RecordsContract:
         self.assertEqual(status, 200, got)
         self.assertEqual(got["estimateId"], first.estimate_id)
         self.assertEqual(got["result"]["volumeM3"], first.volume_m3)
+        # The colour map, for embedding: a PNG of cols x rows cells of cellPx pixels.
+        for query, px in (("", 12), ("?cellPx=3", 3)):
+            url = (f"{self.server.base_url}/v1/containers/{cid}/estimates/{first.estimate_id}"
+                   f"/heightmap.png{query}")
+            with urllib.request.urlopen(url, timeout=30) as answer:
+                self.assertEqual(answer.headers["Content-Type"], "image/png")
+                png = answer.read()
+            self.assertEqual(png[:8], b"\x89PNG\r\n\x1a\n")
+            width, height = struct.unpack(">II", png[16:24])
+            self.assertEqual((width, height), (first.heightmap.cols * px, first.heightmap.rows * px))
+        for path, code in ((f"/v1/containers/{cid}/estimates/999999/heightmap.png", 404),
+                           (f"/v1/containers/{cid}/estimates/x/heightmap.png", 400),
+                           (f"/v1/containers/{cid}/estimates/{first.estimate_id}/heightmap.png?cellPx=0", 400)):
+            status, body = self.server.rest("GET", path)
+            self.assertEqual(status, code, (path, body))
         status, page = self.server.rest("GET", f"/v1/containers/{cid}/estimates?pageSize=1")
         self.assertEqual(status, 200, page)
         self.assertEqual(len(page["estimates"]), 1)

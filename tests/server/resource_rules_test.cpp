@@ -121,7 +121,7 @@ TEST(ResourceRules, RecordIdsAndTokensRefuseHostileText) {
     EXPECT_EQ(*ParseRecordId("42", "estimate_id"), 42);
     EXPECT_EQ(*ParseRecordId("9223372036854775807", "estimate_id"), INT64_MAX);
     for (const std::string& bad : std::vector<std::string>{
-             "", "0", "-1", "+1", " 1", "1 ", "1e3", "0x10", "abc", "99999999999999999999",
+             "", "0", "02", "-1", "+1", " 1", "1 ", "1e3", "0x10", "abc", "99999999999999999999",
              std::string(1000, '9'), std::string("1\0", 2)}) {
         const absl::StatusOr<std::int64_t> id = ParseRecordId(bad, "estimate_id");
         EXPECT_TRUE(absl::IsInvalidArgument(id.status())) << bad;

@@ -66,8 +66,8 @@ TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
     ASSERT_NE(store, nullptr);
     EstimateRecorder recorder(*store, {});
     ASSERT_TRUE(recorder.Record(Draft("a")).ok());  // before the watch: not delivered
+    Inbox a, every;                                 // before the feed: it outlives their watches
     EstimateFeed feed(recorder, {});
-    Inbox a, every;
     auto watch_a = feed.Start({"a", std::nullopt}, a.Deliver(), a.Ended());
     auto watch_all = feed.Start({"", std::nullopt}, every.Deliver(), every.Ended());
     ASSERT_TRUE(watch_a.ok() && watch_all.ok());
@@ -100,8 +100,8 @@ TEST_P(EstimateFeedTest, QuietWatchesGetHeartbeats) {
     EstimateFeed::Config config;
     config.poll = 20ms;
     config.heartbeat = 100ms;
-    EstimateFeed feed(recorder, config);
     Inbox inbox;
+    EstimateFeed feed(recorder, config);
     ASSERT_TRUE(feed.Start({"", std::nullopt}, inbox.Deliver(), inbox.Ended()).ok());
     std::this_thread::sleep_for(600ms);
     std::lock_guard<std::mutex> lock(inbox.mutex);
@@ -122,8 +122,8 @@ TEST_P(EstimateFeedTest, AResumedWatchCatchesUpThenGoesLiveAndSeesOtherReplicas)
     ASSERT_TRUE(store->Append(earlier).ok());
     EstimateFeed::Config config;
     config.batch = 100;  // several catch-up pages
-    EstimateFeed feed(recorder, config);
     Inbox inbox;
+    EstimateFeed feed(recorder, config);
     const std::int64_t resume = earlier[29].id;
     ASSERT_TRUE(feed.Start({"c", resume}, inbox.Deliver(), inbox.Ended()).ok());
     std::vector<std::int64_t> expected;
