@@ -21,8 +21,11 @@ for group in "$@"; do
     case "$group" in
         fuzz) packages+=(clang libfuzzer-14-dev libomp-14-dev) ;;
         test)
+            # golang-google-grpc-dev accepts either golang/protobuf; apt may pick 1.3, whose
+            # well-known types lack the APIv2 methods (AsDuration) the Go example uses.
             packages+=(golang-go golang-google-grpc-dev golang-google-genproto-dev
-                golang-google-protobuf-dev protoc-gen-go protoc-gen-go-grpc chromium postgresql)
+                golang-google-protobuf-dev golang-github-golang-protobuf-1-5-dev
+                protoc-gen-go protoc-gen-go-grpc chromium postgresql)
             ;;
         *)
             echo "install-deps: unknown group '$group' (fuzz, test)" >&2

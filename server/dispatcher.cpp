@@ -33,6 +33,13 @@ absl::Status ClientFacing(const absl::Status& status) {
                         "internal error: the server logged its details with this request");
 }
 
+absl::Status LateAnswer(const CallContext& context) {
+    if (Clock::now() <= context.deadline) return absl::OkStatus();
+    return absl::DeadlineExceededError(
+        absl::StrCat("deadline expired while computing (",
+                     static_cast<long long>(MsSince(context.received)), " ms)"));
+}
+
 }  // namespace
 
 Dispatcher::Dispatcher(WorkerPool& pool, Metrics& metrics, const Authenticator& authenticator)
@@ -73,11 +80,17 @@ void Dispatcher::Submit(CallContext context, Work work, Done done) {
             status = record.stop.Check("the wait for a worker");
         } else {
             status = run_work(record);
-            if (status.ok() && Clock::now() > ctx.deadline) {
-                status = absl::DeadlineExceededError(
-                    absl::StrCat("deadline expired while computing (",
-                                 static_cast<long long>(MsSince(ctx.received)), " ms)"));
+            if (status.ok() && record.finish_later) {
+                auto later = std::move(record.finish_later);
+                auto kept = std::make_shared<CallRecord>(std::move(record));
+                later([this, state, kept](absl::Status result) {
+                    auto& [late_ctx, late_work, late_done] = *state;
+                    if (result.ok()) result = LateAnswer(late_ctx);
+                    Finish(late_ctx, *kept, result, late_done);
+                });
+                return;
             }
+            if (status.ok()) status = LateAnswer(ctx);
         }
         Finish(ctx, record, status, run_done);
     };

@@ -43,6 +43,12 @@ struct CallRecord {
     std::vector<std::pair<std::string, std::string>> ids;  ///< ("container", "bucket-7"), ...
     std::optional<double> volume_m3;
     std::vector<std::pair<std::string, double>> stages_ms;  ///< ("align", 10.2), ...
+    /// Set by a handler whose answer also waits on something that needs no worker (its
+    /// record's commit): once the handler returned OK, the dispatcher calls it with the
+    /// call's completion and the worker moves on; the call ends (log line, metrics, answer)
+    /// when the completion is called, from any thread, with the final status. The response
+    /// stays the handler's to fill until then.
+    std::function<void(std::function<void(absl::Status)>)> finish_later;
 };
 
 /// Runs every RPC of both transports on the bounded worker pool, then logs one line (and an

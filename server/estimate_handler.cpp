@@ -110,8 +110,10 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
         RunEstimate(*container, scan, config, response->mutable_timings(), record.stop));
 
     ToProto(estimate, response);
-    v1::Heightmap heightmap;
-    ToProto(estimate.volume, &heightmap);
+    // The record keeps the heightmap even when the answer omits it.
+    if (Records(request) || !request.omit_heightmap()) {
+        ToProto(estimate.volume, response->mutable_heightmap());
+    }
     response->set_container_id(request.container_id());
     response->set_request_id(request.request_id());
     response->set_method(config.method == volume::Method::kPaper ? v1::ESTIMATION_METHOD_PAPER
@@ -121,8 +123,8 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
             response);
     RecordTimings(record, timer.Lap(), response->mutable_timings());
     record.volume_m3 = estimate.volume_m3;
-    SOILVOL_RETURN_IF_ERROR(RecordEstimate(request, heightmap, response));
-    if (!request.omit_heightmap()) *response->mutable_heightmap() = std::move(heightmap);
+    RecordEstimate(request, response, record);
+    if (request.omit_heightmap()) response->clear_heightmap();
     return absl::OkStatus();
 }
 

@@ -35,8 +35,17 @@ struct RestCall {
     std::string json;
 };
 
+absl::Status ToJson(const google::protobuf::Message& answer, std::string* json) {
+    google::protobuf::util::JsonPrintOptions options;
+    options.always_print_primitive_fields = true;
+    if (!google::protobuf::util::MessageToJsonString(answer, json, options).ok()) {
+        return absl::InternalError("response does not convert to JSON");
+    }
+    return absl::OkStatus();
+}
+
 // The request message from the body, the path and the query; the handler; the answer as
-// JSON. Runs on a worker.
+// JSON. Runs on a worker, and the conversion after the handler's late step if it has one.
 absl::Status BindAndCall(RestCall& call, CallRecord& record) {
     std::unique_ptr<google::protobuf::Message> message = call.rpc->new_request();
     if (absl::Status bound =
@@ -46,15 +55,19 @@ absl::Status BindAndCall(RestCall& call, CallRecord& record) {
         return bound;
     }
     std::string().swap(call.request.body);  // its bytes are in the message now
-    std::unique_ptr<google::protobuf::Message> answer = call.rpc->new_response();
+    std::shared_ptr<google::protobuf::Message> answer(call.rpc->new_response());
     if (absl::Status status = call.rpc->call(*message, answer.get(), record); !status.ok()) {
         return status;
     }
-    google::protobuf::util::JsonPrintOptions options;
-    options.always_print_primitive_fields = true;
-    if (!google::protobuf::util::MessageToJsonString(*answer, &call.json, options).ok()) {
-        return absl::InternalError("response does not convert to JSON");
-    }
+    if (!record.finish_later) return ToJson(*answer, &call.json);
+    // `call` lives as long as the call: the dispatcher keeps it until the completion ran.
+    record.finish_later = [late = std::move(record.finish_later), answer,
+                           json = &call.json](std::function<void(absl::Status)> finish) {
+        late([answer, json, finish = std::move(finish)](absl::Status status) {
+            if (status.ok()) status = ToJson(*answer, json);
+            finish(status);
+        });
+    };
     return absl::OkStatus();
 }
 

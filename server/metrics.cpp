@@ -1,5 +1,8 @@
 #include "server/metrics.hpp"
 
+#include <algorithm>
+#include <mutex>
+
 #include "core/common/build_info.hpp"
 #include "prometheus/counter.h"
 #include "prometheus/gauge.h"
@@ -52,6 +55,40 @@ struct Metrics::Impl {
                                               {"revision", GetBuildInfo().revision},
                                               {"build_type", GetBuildInfo().build_type}});
 
+    std::function<Metrics::RecordFigures()> records_probe;
+    std::mutex records_mutex;             // one scrape at a time moves the counters
+    Metrics::RecordFigures records_seen;  // what the counters hold
+    prometheus::Counter* records_written = nullptr;
+    prometheus::Counter* record_batches = nullptr;
+    prometheus::Counter* record_failures = nullptr;
+    prometheus::Counter* records_pruned = nullptr;
+    prometheus::Gauge* records_queued = nullptr;
+    prometheus::Gauge* watches = nullptr;
+
+    prometheus::Counter& MakeCounter(const std::string& name, const std::string& help,
+                                     const std::string& store) {
+        return prometheus::BuildCounter().Name(name).Help(help).Register(*registry).Add(
+            {{"store", store}});
+    }
+
+    /// The counters moved up to what the probe reports now (counters only grow).
+    void ReadRecords() {
+        if (!records_probe) return;
+        const Metrics::RecordFigures now = records_probe();
+        std::lock_guard<std::mutex> lock(records_mutex);
+        const auto advance = [](prometheus::Counter* counter, std::uint64_t& seen,
+                                std::uint64_t value) {
+            if (value > seen) counter->Increment(static_cast<double>(value - seen));
+            seen = std::max(seen, value);
+        };
+        advance(records_written, records_seen.written, now.written);
+        advance(record_batches, records_seen.batches, now.batches);
+        advance(record_failures, records_seen.failures, now.failures);
+        advance(records_pruned, records_seen.pruned, now.pruned);
+        records_queued->Set(static_cast<double>(now.queued));
+        watches->Set(static_cast<double>(now.watches));
+    }
+
     prometheus::Gauge& MakeGauge(const std::string& name, const std::string& help) {
         return prometheus::BuildGauge().Name(name).Help(help).Register(*registry).Add({});
     }
@@ -85,7 +122,26 @@ void Metrics::SetWorkers(int workers, int max_queue) {
     impl_->max_queue.Set(max_queue);
 }
 
+void Metrics::SetRecordsProbe(std::string store, std::function<RecordFigures()> probe) {
+    Impl& m = *impl_;
+    m.records_written = &m.MakeCounter("soilvol_records_written_total",
+                                       "Estimate records committed by this server", store);
+    m.record_batches = &m.MakeCounter("soilvol_record_batches_total",
+                                      "Transactions that committed estimate records", store);
+    m.record_failures =
+        &m.MakeCounter("soilvol_record_failures_total",
+                       "Estimate records the store refused (their estimates were refused)", store);
+    m.records_pruned = &m.MakeCounter("soilvol_records_pruned_total",
+                                      "Estimate records removed by the retention policy", store);
+    m.records_queued =
+        &m.MakeGauge("soilvol_records_queued", "Estimate records waiting for their commit");
+    m.watches = &m.MakeGauge("soilvol_estimate_watches",
+                             "Open WatchEstimates calls and Server-Sent Event streams");
+    m.records_probe = std::move(probe);
+}
+
 std::string Metrics::Serialize() const {
+    impl_->ReadRecords();
     return prometheus::TextSerializer().Serialize(impl_->registry->Collect());
 }
 

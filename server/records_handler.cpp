@@ -44,29 +44,35 @@ absl::StatusOr<EstimateRecorder*> SoilVolumeHandlers::Recorder() const {
     return recorder_;
 }
 
-absl::Status SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request,
-                                                const v1::Heightmap& heightmap,
-                                                v1::EstimateVolumeResponse* response) {
-    if (recorder_ == nullptr || request.skip_record()) return absl::OkStatus();
+void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request,
+                                        v1::EstimateVolumeResponse* response, CallRecord& record) {
+    if (!Records(request)) return;
     v1::Estimate kept;
     *kept.mutable_create_time() = NowTimestamp();
     kept.set_container_id(request.container_id());
     kept.set_request_id(request.request_id());
     *kept.mutable_result() = *response;
-    *kept.mutable_result()->mutable_heightmap() = heightmap;
     EstimateRecord row;
     row.container_id = request.container_id();
     row.create_time_us = TimeUtil::TimestampToMicroseconds(kept.create_time());
     row.request_id = request.request_id();
     row.payload = kept.SerializeAsString();
-    const absl::StatusOr<std::int64_t> id = recorder_->Record(std::move(row));
-    if (!id.ok()) {
-        return absl::UnavailableError(
-            absl::StrCat("the estimate could not be recorded (retry, or set skip_record): ",
-                         id.status().message()));
-    }
-    response->set_estimate_id(absl::StrCat(*id));
-    return absl::OkStatus();
+    // The dispatcher hands the completion over once the handler returned, so the response
+    // is no longer written on the worker when the commit sets its id.
+    record.finish_later = [recorder = recorder_, row = std::move(row),
+                           answer = response](std::function<void(absl::Status)> finish) mutable {
+        recorder->RecordAsync(
+            std::move(row), [answer, finish = std::move(finish)](absl::StatusOr<std::int64_t> id) {
+                if (!id.ok()) {
+                    finish(absl::UnavailableError(absl::StrCat(
+                        "the estimate could not be recorded (retry, or set skip_record): ",
+                        id.status().message())));
+                    return;
+                }
+                answer->set_estimate_id(absl::StrCat(*id));
+                finish(absl::OkStatus());
+            });
+    };
 }
 
 absl::Status SoilVolumeHandlers::GetEstimate(const v1::GetEstimateRequest& request,

@@ -172,6 +172,12 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
             std::chrono::seconds(static_cast<long long>(o.records_max_age_days * 86400.0));
         p.recorder = std::make_unique<EstimateRecorder>(*p.records, recording);
         p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateFeed::Config{});
+        p.metrics.SetRecordsProbe(
+            p.records->kind(), [recorder = p.recorder.get(), feed = p.feed.get()] {
+                const EstimateRecorder::Stats stats = recorder->stats();
+                return Metrics::RecordFigures{stats.records, stats.batches, stats.failures,
+                                              stats.pruned,  stats.queued,  feed->watches()};
+            });
     }
     p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get());
     p.rpcs = MakeRpcTable(*p.handlers);
@@ -277,6 +283,9 @@ void Server::Shutdown() {
     const bool drained =
         p.pool->Shutdown(std::chrono::duration_cast<std::chrono::milliseconds>(left),
                          [dispatcher] { dispatcher->StopAll(); });
+    // Estimates the workers finished may still wait for their records' commit: answer them
+    // while the transports and the dispatcher are there.
+    if (p.recorder != nullptr) p.recorder->Flush();
     p.gateway->Stop();
     LogEvent(drained ? LogLevel::kInfo : LogLevel::kWarn, "stopped",
              {{"drained", drained ? "yes" : "no, queued calls were refused"}});

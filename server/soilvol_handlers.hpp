@@ -143,10 +143,15 @@ class SoilVolumeHandlers {
     absl::Status DeleteEntry(EntryKind kind, const std::string& id, const char* field,
                              const std::string& etag);
 
-    /// Keeps the record of an answered estimate (unless the request opts out) and sets its id.
-    absl::Status RecordEstimate(const v1::EstimateVolumeRequest& request,
-                                const v1::Heightmap& heightmap,
-                                v1::EstimateVolumeResponse* response);
+    /// Whether EstimateVolume keeps a record of this request's estimate.
+    bool Records(const v1::EstimateVolumeRequest& request) const {
+        return recorder_ != nullptr && !request.skip_record();
+    }
+    /// Keeps the record of an answered estimate (the response as it is now, heightmap
+    /// included) when Records(request): the call is answered, with the record's id, once the
+    /// record is committed (CallRecord::finish_later; the worker does not wait for it).
+    void RecordEstimate(const v1::EstimateVolumeRequest& request,
+                        v1::EstimateVolumeResponse* response, CallRecord& record);
     /// The recorder, or FailedPrecondition when records are off.
     absl::StatusOr<EstimateRecorder*> Recorder() const;
 

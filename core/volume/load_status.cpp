@@ -137,22 +137,4 @@ LoadAssessment AssessLoad(double volume_m3, double sigma_m3, const Material& mat
     return out;
 }
 
-const char* LoadStatusName(LoadStatus status) {
-    switch (status) {
-        case LoadStatus::kEmpty:
-            return "EMPTY";
-        case LoadStatus::kCarryback:
-            return "CARRYBACK";
-        case LoadStatus::kUnderloaded:
-            return "UNDERLOADED";
-        case LoadStatus::kLoadedOk:
-            return "LOADED_OK";
-        case LoadStatus::kOverloaded:
-            return "OVERLOADED";
-        case LoadStatus::kLoaded:
-            return "LOADED";
-    }
-    return "UNKNOWN";
-}
-
 }  // namespace soilvol::volume

@@ -61,7 +61,4 @@ LoadAssessment AssessLoad(double volume_m3, double sigma_m3, const Material& mat
                           const LoadTargets& targets,
                           std::optional<double> density_override = std::nullopt);
 
-/// "EMPTY", "CARRYBACK", ... as the API spells them.
-const char* LoadStatusName(LoadStatus status);
-
 }  // namespace soilvol::volume

@@ -53,13 +53,17 @@ class EstimateFeed::Watch {
 
 EstimateFeed::EstimateFeed(EstimateRecorder& recorder, Config config)
     : recorder_(recorder), config_(config) {
+    ReadNewestId();
+    thread_ = std::thread([this] { Run(); });
+}
+
+void EstimateFeed::ReadNewestId() {
     RecordQuery newest;
     newest.limit = 1;
     newest.with_payload = false;
     if (auto rows = recorder_.store().List(newest); rows.ok() && !rows->empty()) {
-        newest_ = rows->front().id;
+        newest_ = std::max(newest_, rows->front().id);
     }
-    thread_ = std::thread([this] { Run(); });
 }
 
 EstimateFeed::~EstimateFeed() { Shutdown(); }
@@ -147,6 +151,10 @@ void EstimateFeed::Run() {
                 watch->Close(absl::UnavailableError("the server is shutting down"), true);
             }
             return;
+        }
+        if (watches.empty()) {  // nobody to hand records to: where "now" is, without them
+            ReadNewestId();
+            continue;
         }
         // What is new since the last round, every container at once.
         std::vector<EstimateRecord> fresh;

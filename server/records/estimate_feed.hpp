@@ -63,6 +63,8 @@ class EstimateFeed {
     void Run();
     /// Hands `watch` what it is owed up to `upto`: false when it ended.
     bool CatchUp(Watch& watch, std::int64_t upto);
+    /// newest_ moved up to the newest id in the store (one index lookup, no payloads).
+    void ReadNewestId();
     void End(const std::shared_ptr<Watch>& watch, const absl::Status& status);
 
     EstimateRecorder& recorder_;

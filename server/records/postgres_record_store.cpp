@@ -108,8 +108,9 @@ class PostgresRecordStore final : public RecordStore {
         return out;
     }
 
-    absl::StatusOr<std::int64_t> Prune(const RetentionPolicy& policy,
-                                       std::int64_t now_us) override {
+    absl::StatusOr<std::int64_t> Prune(
+        const RetentionPolicy& policy, std::int64_t now_us,
+        const std::optional<std::vector<std::string>>& containers) override {
         std::int64_t deleted = 0;
         SOILVOL_RETURN_IF_ERROR(Run("prune", [&](pqxx::work& work) {
             const std::int64_t oldest =
@@ -118,12 +119,25 @@ class PostgresRecordStore final : public RecordStore {
             deleted +=
                 work.exec_params("DELETE FROM soilvol_estimates WHERE create_time_us < $1", oldest)
                     .affected_rows();
-            deleted += work.exec_params(
-                               "DELETE FROM soilvol_estimates WHERE id IN (SELECT id FROM "
-                               "(SELECT id, ROW_NUMBER() OVER (PARTITION BY container_id ORDER "
-                               "BY id DESC) AS n FROM soilvol_estimates) AS ranked WHERE n > $1)",
-                               policy.max_per_container)
-                           .affected_rows();
+            if (!containers) {
+                deleted += work.exec_params(
+                                   "DELETE FROM soilvol_estimates WHERE id IN (SELECT id FROM "
+                                   "(SELECT id, ROW_NUMBER() OVER (PARTITION BY container_id "
+                                   "ORDER BY id DESC) AS n FROM soilvol_estimates) AS ranked "
+                                   "WHERE n > $1)",
+                                   policy.max_per_container)
+                               .affected_rows();
+                return;
+            }
+            for (const std::string& container_id : *containers) {
+                // Older than the container's (max+1)-th newest; nothing when it has no more.
+                deleted += work.exec_params(
+                                   "DELETE FROM soilvol_estimates WHERE container_id = $1 AND "
+                                   "id <= (SELECT id FROM soilvol_estimates WHERE container_id "
+                                   "= $1 ORDER BY id DESC LIMIT 1 OFFSET $2)",
+                                   container_id, policy.max_per_container)
+                               .affected_rows();
+            }
         }));
         return deleted;
     }

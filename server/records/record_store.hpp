@@ -60,9 +60,15 @@ class RecordStore {
 
     virtual absl::StatusOr<std::vector<EstimateRecord>> List(const RecordQuery& query) = 0;
 
-    /// Deletes what `policy` no longer keeps as of `now_us`; the number deleted.
-    virtual absl::StatusOr<std::int64_t> Prune(const RetentionPolicy& policy,
-                                               std::int64_t now_us) = 0;
+    /// Deletes what `policy` no longer keeps as of `now_us`: every record older than max_age
+    /// (through the time index), and all but the newest max_per_container records of each
+    /// container in `containers` - those that got records since the last prune, the only ones
+    /// that can have grown past it (each through the (container, id) index) - or, with
+    /// nullopt, of every container (a scan of the whole table: once, at start). The number
+    /// deleted.
+    virtual absl::StatusOr<std::int64_t> Prune(
+        const RetentionPolicy& policy, std::int64_t now_us,
+        const std::optional<std::vector<std::string>>& containers) = 0;
 
     /// "sqlite" or "postgresql", for logs and metrics.
     virtual const char* kind() const = 0;

@@ -1,12 +1,13 @@
 #include "server/records/recorder.hpp"
 
+#include <future>
 #include <vector>
 
 namespace soilvol::server {
 
 EstimateRecorder::EstimateRecorder(RecordStore& store, Config config)
     : store_(store), config_(config), last_prune_(std::chrono::steady_clock::now()) {
-    Prune();
+    Prune(true);  // every container once: the policy may have changed since the last run
     thread_ = std::thread([this] { Run(); });
 }
 
@@ -16,19 +17,39 @@ EstimateRecorder::~EstimateRecorder() {
         stopping_ = true;
     }
     work_.notify_all();
+    room_.notify_all();
     thread_.join();
 }
 
-absl::StatusOr<std::int64_t> EstimateRecorder::Record(EstimateRecord record) {
-    std::future<absl::StatusOr<std::int64_t>> done;
+void EstimateRecorder::RecordAsync(EstimateRecord record, Committed committed) {
     {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (stopping_) return absl::UnavailableError("records: the server is shutting down");
-        queue_.push_back({std::move(record), {}});
-        done = queue_.back().done.get_future();
+        std::unique_lock<std::mutex> lock(mutex_);
+        room_.wait(lock, [&] { return stopping_ || queue_.size() < config_.max_queued; });
+        if (!stopping_) {
+            queue_.push_back({std::move(record), std::move(committed)});
+            ++queued_total_;
+            committed = nullptr;
+        }
+    }
+    if (committed) {
+        committed(absl::UnavailableError("records: the server is shutting down"));
+        return;
     }
     work_.notify_one();
-    return done.get();
+}
+
+absl::StatusOr<std::int64_t> EstimateRecorder::Record(EstimateRecord record) {
+    std::promise<absl::StatusOr<std::int64_t>> done;
+    std::future<absl::StatusOr<std::int64_t>> answer = done.get_future();
+    RecordAsync(std::move(record),
+                [&done](absl::StatusOr<std::int64_t> id) { done.set_value(std::move(id)); });
+    return answer.get();
+}
+
+void EstimateRecorder::Flush() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const std::uint64_t target = queued_total_;
+    committed_.wait(lock, [&] { return answered_total_ >= target; });
 }
 
 std::int64_t EstimateRecorder::WaitForNewer(std::int64_t seen, std::chrono::milliseconds timeout) {
@@ -49,7 +70,9 @@ void EstimateRecorder::WakeWaiters() {
 
 EstimateRecorder::Stats EstimateRecorder::stats() const {
     std::lock_guard<std::mutex> lock(mutex_);
-    return stats_;
+    Stats now = stats_;
+    now.queued = static_cast<std::size_t>(queued_total_ - committed_total_);
+    return now;
 }
 
 void EstimateRecorder::Run() {
@@ -61,7 +84,7 @@ void EstimateRecorder::Run() {
         if (queue_.empty()) {
             if (stopping_) return;
             lock.unlock();
-            Prune();
+            Prune(false);
             lock.lock();
             continue;
         }
@@ -71,6 +94,7 @@ void EstimateRecorder::Run() {
             queue_.pop_front();
         }
         lock.unlock();
+        room_.notify_all();
         std::vector<EstimateRecord> records;
         records.reserve(batch.size());
         for (Pending& pending : batch) records.push_back(std::move(pending.record));
@@ -79,6 +103,7 @@ void EstimateRecorder::Run() {
             // Counted before any caller returns, so that what a caller sees includes its own.
             std::lock_guard<std::mutex> counted(mutex_);
             ++stats_.batches;
+            committed_total_ += records.size();
             if (status.ok()) {
                 stats_.records += records.size();
                 newest_ = std::max(newest_, records.back().id);
@@ -86,25 +111,36 @@ void EstimateRecorder::Run() {
                 stats_.failures += records.size();
             }
         }
-        committed_.notify_all();
+        committed_.notify_all();  // watchers first: the record is there for them to read
         for (std::size_t i = 0; i < batch.size(); ++i) {
             if (status.ok()) {
-                batch[i].done.set_value(records[i].id);
+                batch[i].committed(records[i].id);
             } else {
-                batch[i].done.set_value(status);
+                batch[i].committed(status);
             }
         }
-        if (std::chrono::steady_clock::now() - last_prune_ >= config_.prune_every) Prune();
+        {
+            std::lock_guard<std::mutex> answered(mutex_);
+            answered_total_ += batch.size();
+        }
+        committed_.notify_all();
+        if (status.ok()) {
+            for (const EstimateRecord& record : records) touched_.insert(record.container_id);
+        }
+        if (std::chrono::steady_clock::now() - last_prune_ >= config_.prune_every) Prune(false);
         lock.lock();
     }
 }
 
-void EstimateRecorder::Prune() {
+void EstimateRecorder::Prune(bool every_container) {
     last_prune_ = std::chrono::steady_clock::now();
+    std::optional<std::vector<std::string>> containers;
+    if (!every_container) containers.emplace(touched_.begin(), touched_.end());
     const std::int64_t now_us = std::chrono::duration_cast<std::chrono::microseconds>(
                                     std::chrono::system_clock::now().time_since_epoch())
                                     .count();
-    const absl::StatusOr<std::int64_t> pruned = store_.Prune(config_.retention, now_us);
+    const absl::StatusOr<std::int64_t> pruned = store_.Prune(config_.retention, now_us, containers);
+    if (pruned.ok()) touched_.clear();  // else: again next time
     std::lock_guard<std::mutex> lock(mutex_);
     if (pruned.ok()) stats_.pruned += static_cast<std::uint64_t>(*pruned);
 }

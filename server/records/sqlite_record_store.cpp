@@ -166,8 +166,9 @@ class SqliteRecordStore final : public RecordStore {
         return out;
     }
 
-    absl::StatusOr<std::int64_t> Prune(const RetentionPolicy& policy,
-                                       std::int64_t now_us) override {
+    absl::StatusOr<std::int64_t> Prune(
+        const RetentionPolicy& policy, std::int64_t now_us,
+        const std::optional<std::vector<std::string>>& containers) override {
         std::lock_guard<std::mutex> lock(mutex_);
         Statement old(db_, "DELETE FROM estimates WHERE create_time_us < ?1");
         SOILVOL_RETURN_IF_ERROR(old.Prepared("prune by age"));
@@ -176,14 +177,29 @@ class SqliteRecordStore final : public RecordStore {
             now_us - std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count());
         SOILVOL_RETURN_IF_ERROR(old.Step("prune by age").status());
         std::int64_t deleted = sqlite3_changes(db_);
-        Statement surplus(db_,
-                          "DELETE FROM estimates WHERE id IN (SELECT id FROM (SELECT id, "
-                          "ROW_NUMBER() OVER (PARTITION BY container_id ORDER BY id DESC) AS n "
-                          "FROM estimates) WHERE n > ?1)");
-        SOILVOL_RETURN_IF_ERROR(surplus.Prepared("prune by count"));
-        surplus.Bind(1, policy.max_per_container);
-        SOILVOL_RETURN_IF_ERROR(surplus.Step("prune by count").status());
-        return deleted + sqlite3_changes(db_);
+        if (!containers) {
+            Statement surplus(db_,
+                              "DELETE FROM estimates WHERE id IN (SELECT id FROM (SELECT id, "
+                              "ROW_NUMBER() OVER (PARTITION BY container_id ORDER BY id DESC) "
+                              "AS n FROM estimates) WHERE n > ?1)");
+            SOILVOL_RETURN_IF_ERROR(surplus.Prepared("prune by count"));
+            surplus.Bind(1, policy.max_per_container);
+            SOILVOL_RETURN_IF_ERROR(surplus.Step("prune by count").status());
+            return deleted + sqlite3_changes(db_);
+        }
+        for (const std::string& container_id : *containers) {
+            // Older than the container's (max+1)-th newest; nothing when it has no more.
+            Statement surplus(db_,
+                              "DELETE FROM estimates WHERE container_id = ?1 AND id <= (SELECT "
+                              "id FROM estimates WHERE container_id = ?1 ORDER BY id DESC "
+                              "LIMIT 1 OFFSET ?2)");
+            SOILVOL_RETURN_IF_ERROR(surplus.Prepared("prune by count"));
+            surplus.Bind(1, container_id);
+            surplus.Bind(2, policy.max_per_container);
+            SOILVOL_RETURN_IF_ERROR(surplus.Step("prune by count").status());
+            deleted += sqlite3_changes(db_);
+        }
+        return deleted;
     }
 
     const char* kind() const override { return "sqlite"; }

@@ -17,7 +17,7 @@ import uuid
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, load_grpc, needs_own_server  # noqa: E402
+from harness import Server, load_grpc, needs_own_server, server_metric  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 from google.protobuf import timestamp_pb2  # noqa: E402
@@ -263,6 +263,34 @@ class RecordsContract:
             self.assertEqual(bad.status, 400)
             bad.close()
 
+    def test_metrics_count_the_records_and_the_watches(self):
+        store = self.store_kind()
+        figures = lambda: {name: server_metric(self.server, name, **labels) for name, labels in (
+            ("soilvol_records_written_total", {"store": store}),
+            ("soilvol_record_batches_total", {"store": store}),
+            ("soilvol_record_failures_total", {"store": store}),
+            ("soilvol_records_queued", {}),
+            ("soilvol_estimate_watches", {}))}
+        before = figures()
+        cid = self.prefix + "-m"
+        self.register(cid)
+        for fill in (0.1, 0.2):
+            self.estimate(cid, fill, omit_heightmap=True)
+        self.estimate(cid, 0.2, skip_record=True)
+        events = SseReader(self.server.http_port, f"/v1/estimates:watch?containerId={cid}")
+        self.assertEqual(events.status, 200)
+        after = figures()
+        # Other tests of this class may record meanwhile only when run in parallel; they are not.
+        self.assertEqual(after["soilvol_records_written_total"],
+                         before["soilvol_records_written_total"] + 2)
+        self.assertGreaterEqual(after["soilvol_record_batches_total"],
+                                before["soilvol_record_batches_total"] + 1)
+        self.assertEqual(after["soilvol_record_failures_total"],
+                         before["soilvol_record_failures_total"])
+        self.assertEqual(after["soilvol_records_queued"], 0)  # each answer waited for its commit
+        self.assertEqual(after["soilvol_estimate_watches"], before["soilvol_estimate_watches"] + 1)
+        events.close()
+
     def test_answered_estimates_survive_kill_9(self):
         cid = self.prefix + "-k"
         self.register(cid)
@@ -307,6 +335,10 @@ class SqliteRecords(RecordsContract, unittest.TestCase):
     def records_args(cls):
         return []  # the default: <data-dir>/records.sqlite3
 
+    @staticmethod
+    def store_kind():
+        return "sqlite"
+
     def replica(self):
         """Another process on the same data directory (and so the same SQLite file)."""
         return Server(data_dir=self.server.data_dir, args=["--workers", "2"])
@@ -321,6 +353,10 @@ class PostgresRecords(RecordsContract, unittest.TestCase):
         if not postgres_url():
             raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
         return ["--records-url", postgres_url()]
+
+    @staticmethod
+    def store_kind():
+        return "postgresql"
 
     def replica(self):
         """Another process on the same model directory (as Kubernetes replicas share a volume)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the Go example offline from Debian's packages (golang-go, golang-google-grpc-dev,
-# golang-google-genproto-dev, golang-google-protobuf-dev, protoc-gen-go, protoc-gen-go-grpc):
+# golang-google-genproto-dev, golang-google-protobuf-dev, golang-github-golang-protobuf-1-5-dev,
+# protoc-gen-go, protoc-gen-go-grpc):
 # GOPATH mode over /usr/share/gocode, the stubs generated into OUT/src/soilvol.dev/api.
 # Usage: client/examples/go/build.sh OUT_DIR  ->  OUT_DIR/soilvol-go-example
 set -euo pipefail

@@ -95,31 +95,62 @@ TEST_P(RecordStoreTest, ListsNewestFirstByContainerAndTimeAndCatchesUpOldestFirs
 }
 
 TEST_P(RecordStoreTest, PruneKeepsTheNewestPerContainerAndNothingTooOld) {
+    const std::int64_t now = 1'000'000'000'000;
+    const std::int64_t hour = 3'600'000'000;
+    RetentionPolicy policy;
+    policy.max_per_container = 3;
+    policy.max_age = std::chrono::hours(48);
+    // Every container (nullopt), or the ones named: the same outcome for "a" and "b".
+    for (const std::optional<std::vector<std::string>>& containers :
+         {std::optional<std::vector<std::string>>(),
+          std::optional<std::vector<std::string>>({"a", "b", "never-recorded"})}) {
+        TestDatabase db(GetParam());
+        SOILVOL_NEED_DATABASE(db);
+        auto store = db.Open();
+        ASSERT_NE(store, nullptr);
+        std::vector<EstimateRecord> records;
+        for (int i = 0; i < 5; ++i) records.push_back(Draft("a", now - i * hour));
+        records.push_back(Draft("b", now - 50 * hour));  // too old
+        records.push_back(Draft("b", now));
+        ASSERT_TRUE(store->Append(records).ok());
+        const absl::StatusOr<std::int64_t> pruned = store->Prune(policy, now, containers);
+        ASSERT_TRUE(pruned.ok()) << pruned.status();
+        EXPECT_EQ(*pruned, 3);
+        // "a" keeps its three newest records (by id, the order they were recorded).
+        RecordQuery a;
+        a.container_id = "a";
+        EXPECT_EQ(Ids(*store->List(a)),
+                  (std::vector<std::int64_t>{records[4].id, records[3].id, records[2].id}));
+        RecordQuery b;
+        b.container_id = "b";
+        EXPECT_EQ(Ids(*store->List(b)), (std::vector<std::int64_t>{records[6].id}));
+    }
+}
+
+TEST_P(RecordStoreTest, PruneByCountLeavesContainersItIsNotGiven) {
     TestDatabase db(GetParam());
     SOILVOL_NEED_DATABASE(db);
     auto store = db.Open();
     ASSERT_NE(store, nullptr);
     const std::int64_t now = 1'000'000'000'000;
-    const std::int64_t hour = 3'600'000'000;
     std::vector<EstimateRecord> records;
-    for (int i = 0; i < 5; ++i) records.push_back(Draft("a", now - i * hour));
-    records.push_back(Draft("b", now - 50 * hour));  // too old
-    records.push_back(Draft("b", now));
+    for (int i = 0; i < 4; ++i) records.push_back(Draft("busy", now));
+    for (int i = 0; i < 4; ++i) records.push_back(Draft("quiet", now));
     ASSERT_TRUE(store->Append(records).ok());
     RetentionPolicy policy;
-    policy.max_per_container = 3;
-    policy.max_age = std::chrono::hours(48);
-    const absl::StatusOr<std::int64_t> pruned = store->Prune(policy, now);
+    policy.max_per_container = 2;
+    const absl::StatusOr<std::int64_t> pruned =
+        store->Prune(policy, now, std::vector<std::string>{"busy"});
     ASSERT_TRUE(pruned.ok()) << pruned.status();
-    EXPECT_EQ(*pruned, 3);
-    // "a" keeps its three newest records (by id, the order they were recorded).
-    RecordQuery a;
-    a.container_id = "a";
-    EXPECT_EQ(Ids(*store->List(a)),
-              (std::vector<std::int64_t>{records[4].id, records[3].id, records[2].id}));
-    RecordQuery b;
-    b.container_id = "b";
-    EXPECT_EQ(Ids(*store->List(b)), (std::vector<std::int64_t>{records[6].id}));
+    EXPECT_EQ(*pruned, 2);
+    RecordQuery busy;
+    busy.container_id = "busy";
+    EXPECT_EQ(Ids(*store->List(busy)), (std::vector<std::int64_t>{records[3].id, records[2].id}));
+    RecordQuery quiet;
+    quiet.container_id = "quiet";
+    EXPECT_EQ(store->List(quiet)->size(), 4u);  // the next prune that names it trims it
+    // Exactly at the limit: nothing to delete.
+    EXPECT_EQ(*store->Prune(policy, now, std::vector<std::string>{"busy"}), 0);
 }
 
 // Two stores on one database (two replicas) write while a third watches by last-seen id:

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <mutex>
 #include <set>
 #include <thread>
 
@@ -67,6 +69,42 @@ TEST_P(RecorderTest, WatchersWakeOnACommit) {
     EXPECT_EQ(woke, *id);
 }
 
+TEST_P(RecorderTest, AsyncCallersHearOfTheirCommitWithoutWaitingForIt) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder::Config config;
+    config.max_queued = 4;  // more records than this: the callers are pushed back, not refused
+    EstimateRecorder recorder(*store, config);
+    constexpr int kRecords = 50;
+    std::mutex mutex;
+    std::vector<std::int64_t> ids;
+    std::set<std::thread::id> answered_on;
+    const std::thread::id caller = std::this_thread::get_id();
+    for (int i = 0; i < kRecords; ++i) {
+        EstimateRecord record;
+        record.container_id = "c";
+        record.payload = std::to_string(i);
+        recorder.RecordAsync(record, [&, i](absl::StatusOr<std::int64_t> id) {
+            ASSERT_TRUE(id.ok()) << id.status();
+            std::lock_guard<std::mutex> lock(mutex);
+            ids.push_back(*id);
+            answered_on.insert(std::this_thread::get_id());
+            // The id holds this caller's record, already committed.
+            const auto got = store->Get("c", *id);
+            ASSERT_TRUE(got.ok()) << got.status();
+            EXPECT_EQ(got->payload, std::to_string(i));
+        });
+    }
+    recorder.Flush();  // every record queued above is committed and its caller told
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_EQ(ids.size(), static_cast<std::size_t>(kRecords));
+    EXPECT_TRUE(std::is_sorted(ids.begin(), ids.end()));  // in the order they were queued
+    EXPECT_EQ(answered_on.count(caller), 0u);             // on the recorder's thread
+    EXPECT_EQ(recorder.stats().records, static_cast<std::uint64_t>(kRecords));
+}
+
 TEST_P(RecorderTest, RetentionAppliesAsRecordsArrive) {
     TestDatabase db(GetParam());
     SOILVOL_NEED_DATABASE(db);
@@ -88,6 +126,47 @@ TEST_P(RecorderTest, RetentionAppliesAsRecordsArrive) {
     query.container_id = "c";
     EXPECT_LE(store->List(query)->size(), 3u);  // the last batch may await its prune
     EXPECT_GE(recorder.stats().pruned, 2u);
+}
+
+/// A database that is down: every commit fails.
+class DownStore final : public RecordStore {
+  public:
+    absl::Status Append(std::vector<EstimateRecord>&) override {
+        ++appends;
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<EstimateRecord> Get(const std::string&, std::int64_t) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::vector<EstimateRecord>> List(const RecordQuery&) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::int64_t> Prune(const RetentionPolicy&, std::int64_t,
+                                       const std::optional<std::vector<std::string>>&) override {
+        return absl::UnavailableError("connection refused");
+    }
+    const char* kind() const override { return "down"; }
+    std::atomic<int> appends{0};
+};
+
+TEST(Recorder, AFailedCommitReachesEveryCallerWithTheStoresError) {
+    DownStore store;
+    EstimateRecorder recorder(store, {});
+    constexpr int kRecords = 20;
+    std::atomic<int> failed{0};
+    for (int i = 0; i < kRecords; ++i) {
+        recorder.RecordAsync({}, [&](absl::StatusOr<std::int64_t> id) {
+            EXPECT_EQ(id.status().code(), absl::StatusCode::kUnavailable);
+            EXPECT_EQ(id.status().message(), "connection refused");
+            ++failed;
+        });
+    }
+    recorder.Flush();
+    EXPECT_EQ(failed, kRecords);
+    EXPECT_EQ(recorder.stats().failures, static_cast<std::uint64_t>(kRecords));
+    EXPECT_EQ(recorder.stats().records, 0u);
+    EXPECT_GE(store.appends, 1);
+    EXPECT_LE(store.appends, kRecords);
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, RecorderTest, ::testing::Values("sqlite", "postgresql"),
