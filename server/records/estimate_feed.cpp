@@ -134,6 +134,7 @@ bool EstimateFeed::CatchUp(Watch& watch, std::int64_t upto) {
 void EstimateFeed::Run() {
     std::int64_t seen_local = 0;
     while (true) {
+        const std::int64_t seen_before = seen_local;
         seen_local = recorder_.WaitForNewer(seen_local, config_.poll);
         std::vector<std::shared_ptr<Watch>> watches;
         bool stopping = false;
@@ -152,8 +153,12 @@ void EstimateFeed::Run() {
             }
             return;
         }
-        if (watches.empty()) {  // nobody to hand records to: where "now" is, without them
-            ReadNewestId();
+        if (watches.empty()) {  // nobody to hand records to: only where "now" is
+            if (seen_local > seen_before) {
+                newest_ = std::max(newest_, seen_local);  // this process committed it
+            } else {
+                ReadNewestId();  // a poll: other replicas' records
+            }
             continue;
         }
         // What is new since the last round, every container at once.
