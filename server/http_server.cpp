@@ -653,17 +653,24 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
 
     // Closing with unread bytes would reset the connection and could lose the answer just
     // written: stop sending, read and drop what the client still sends for a moment, then close.
+    // TLS first sends its close_notify; what the client sends after it (the rest of a body
+    // the answer refused) is dropped undecrypted from the socket, as with plain TCP: closing
+    // once async_shutdown gave up on that data reset the client mid-upload.
     void Linger() {
+        drain_deadline_ = Clock::now() + kDrainTime;
         if constexpr (std::is_same_v<Stream, TlsStream>) {
-            Lowest().expires_after(kDrainTime);
+            Lowest().expires_at(drain_deadline_);
             stream_.async_shutdown(
-                [self = this->shared_from_this()](beast::error_code) { self->Close(); });
+                [self = this->shared_from_this()](beast::error_code) { self->DrainSocket(); });
         } else {
-            beast::error_code ignored;
-            Lowest().socket().shutdown(tcp::socket::shutdown_send, ignored);
-            drain_deadline_ = Clock::now() + kDrainTime;
-            Drain();
+            DrainSocket();
         }
+    }
+
+    void DrainSocket() {
+        beast::error_code ignored;
+        Lowest().socket().shutdown(tcp::socket::shutdown_send, ignored);
+        Drain();
     }
 
     void Drain() {
