@@ -20,23 +20,6 @@ namespace {
 constexpr double kLitre = 1000.0;
 constexpr std::array<double, 6> kFillShares = {0.0, 0.25, 0.5, 0.75, 1.0, 1.3};
 
-// The sensor of one seed: noise, resolution and outliers cycle through the ranges.
-Setup FamilySetup(sim::ContainerFamily family, int seed, int empty_scans = 1) {
-    Setup setup;
-    setup.empty_scans = empty_scans;
-    setup.shape = sim::RandomShape(family, static_cast<uint64_t>(seed));
-    setup.sensor = sim::ViewpointFor(*setup.shape, static_cast<uint64_t>(seed));
-    constexpr std::array<double, 4> kNoise = {0.01, 0.02, 0.03, 0.04};
-    constexpr std::array<double, 4> kResolution = {0.5, 0.35, 0.25, 0.4};
-    constexpr std::array<double, 3> kOutliers = {0.0, 0.01, 0.02};
-    setup.sensor.range_noise_sigma_m = kNoise[static_cast<std::size_t>(seed) % kNoise.size()];
-    setup.sensor.angular_resolution_deg =
-        kResolution[static_cast<std::size_t>(seed / 2) % kResolution.size()];
-    setup.sensor.outlier_fraction = kOutliers[static_cast<std::size_t>(seed) % kOutliers.size()];
-    setup.jitter = {5.0, 0.10};
-    return setup;
-}
-
 struct Cell {
     std::vector<double> error_pct;  // of struck capacity
     std::vector<double> true_l;

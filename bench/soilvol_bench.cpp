@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "absl/strings/str_format.h"
+#include "bench/budget.hpp"
 #include "bench/family_tables.hpp"
 #include "bench/stereo_tables.hpp"
 #include "bench/stereo_trial.hpp"
@@ -127,6 +128,8 @@ int main(int argc, char** argv) {
                       app.add_subcommand("table2", "paper Table 2: grid sizes"),
                       app.add_subcommand("containers", "other containers"),
                       app.add_subcommand("families", "every container family, random shapes"),
+                      app.add_subcommand("budget", "the error split by stage (truth swapped in)"),
+                      app.add_subcommand("pose", "the found pose on the paper bucket"),
                       app.add_subcommand("moves", "large container moves, with and without a pose"),
                       app.add_subcommand("robustness", "sensor and set-up variations"),
                       app.add_subcommand("density", "accuracy from 20k to 1M points a scan"),
@@ -182,6 +185,8 @@ int main(int argc, char** argv) {
     if (name == "table1" || name == "all") md << FillTable(seeds, std::cout);
     if (name == "table2" || name == "all") md << GridTable(seeds, std::cout);
     if (name == "containers" || name == "all") md << ContainerTable(seeds, std::cout);
+    if (name == "budget" || name == "all") md << BudgetTable(seeds, std::cout);
+    if (name == "pose" || name == "all") md << PoseTable(std::max(seeds, 5), std::cout);
     if (name == "families" || name == "all") md << FamilyTable(seeds, std::cout);
     if (name == "moves" || name == "all") md << MovesTable(std::min(seeds, 2), std::cout);
     if (name == "robustness" || name == "all") md << RobustnessTable(seeds, std::cout);

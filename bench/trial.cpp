@@ -1,6 +1,7 @@
 #include "bench/trial.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -42,6 +43,22 @@ EmptyScanCase SimulateEmpty(const Setup& setup, uint64_t seed) {
         c += setup.corner_noise_m * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
     }
     return out;
+}
+
+Setup FamilySetup(sim::ContainerFamily family, int seed, int empty_scans) {
+    Setup setup;
+    setup.empty_scans = empty_scans;
+    setup.shape = sim::RandomShape(family, static_cast<uint64_t>(seed));
+    setup.sensor = sim::ViewpointFor(*setup.shape, static_cast<uint64_t>(seed));
+    constexpr std::array<double, 4> kNoise = {0.01, 0.02, 0.03, 0.04};
+    constexpr std::array<double, 4> kResolution = {0.5, 0.35, 0.25, 0.4};
+    constexpr std::array<double, 3> kOutliers = {0.0, 0.01, 0.02};
+    const auto s = static_cast<std::size_t>(seed);
+    setup.sensor.range_noise_sigma_m = kNoise[s % kNoise.size()];
+    setup.sensor.angular_resolution_deg = kResolution[(s / 2) % kResolution.size()];
+    setup.sensor.outlier_fraction = kOutliers[s % kOutliers.size()];
+    setup.jitter = {5.0, 0.10};
+    return setup;
 }
 
 RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {

@@ -31,6 +31,11 @@ struct Setup {
 /// container's inside is mostly visible.
 sim::SensorSpec PaperSensor(sim::ContainerKind container);
 
+/// The families table's set-up for one seed: a random member of `family`, a viewpoint that sees
+/// most of its inside, and a sensor whose noise (1-4 cm), resolution (0.25-0.5 deg) and
+/// outliers (0-2%) cycle with the seed; moves up to 5 deg / 10 cm between scans.
+Setup FamilySetup(sim::ContainerFamily family, int seed, int empty_scans = 1);
+
 /// The container model registered from a simulated empty scan (seeded), with the truth.
 struct RegisteredModel {
     absl::StatusOr<model::ContainerModel> model;

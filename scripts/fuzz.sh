@@ -8,8 +8,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir="${SOILVOL_FUZZ_BUILD_DIR:-build-fuzz}"
 seconds="${SOILVOL_FUZZ_SECONDS:-30}"
-targets=(fuzz_cloud_decoder fuzz_image_header fuzz_model_codec fuzz_http_binding
-    fuzz_calibration_record fuzz_token_file fuzz_multipart fuzz_resource_rules)
+targets=(fuzz_cloud_decoder fuzz_mesh_decoder fuzz_image_header fuzz_model_codec
+    fuzz_http_binding fuzz_calibration_record fuzz_token_file fuzz_multipart fuzz_resource_rules)
 scripts/install-deps.sh fuzz
 CC=clang CXX=clang++ cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DSOILVOL_FUZZ=ON -DSOILVOL_SANITIZE=address,undefined -DSOILVOL_BUILD_TESTS=OFF \

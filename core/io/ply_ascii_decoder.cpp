@@ -16,8 +16,10 @@ absl::Status AsciiError(absl::string_view what) {
     return absl::InvalidArgumentError(absl::StrCat("PLY ascii: ", what));
 }
 
+}  // namespace
+
 // Each entry is a line with a token per property, so it takes at least 2 bytes per property.
-absl::Status CheckFits(const PlyElement& element, std::size_t available) {
+absl::Status CheckAsciiFits(const PlyElement& element, std::size_t available) {
     const std::uint64_t min_line_bytes = 2 * std::max<std::uint64_t>(element.properties.size(), 1);
     if (element.count > (static_cast<std::uint64_t>(available) + 1) / min_line_bytes) {
         return AsciiError(absl::StrCat(element.name, " count ", element.count,
@@ -26,26 +28,25 @@ absl::Status CheckFits(const PlyElement& element, std::size_t available) {
     return absl::OkStatus();
 }
 
-absl::Status EndsEarly(const PlyElement& element, std::uint64_t read) {
+absl::Status AsciiEndsEarly(const PlyElement& element, std::uint64_t read) {
     return AsciiError(absl::StrCat("expected ", element.count, " ", element.name,
                                    " lines but the data ends after ", read));
 }
 
 // An element without properties has no lines; one with properties has one line per entry.
-absl::Status SkipElement(const PlyElement& element, LineReader* lines) {
+absl::Status SkipAsciiElement(const PlyElement& element, LineReader* lines) {
     if (element.properties.empty()) return absl::OkStatus();
-    SOILVOL_RETURN_IF_ERROR(CheckFits(element, lines->remaining()));
+    SOILVOL_RETURN_IF_ERROR(CheckAsciiFits(element, lines->remaining()));
     std::string_view line;
     for (std::uint64_t i = 0; i < element.count; ++i) {
-        if (!lines->NextNonBlank(&line)) return EndsEarly(element, i);
+        if (!lines->NextNonBlank(&line)) return AsciiEndsEarly(element, i);
     }
     return absl::OkStatus();
 }
 
-// Reads x/y/z (slots given by `axis_of`, -1 for other properties) from one vertex line.
-absl::Status ParseVertexLine(const PlyElement& vertex, const std::vector<int>& axis_of,
-                             std::string_view line, std::uint64_t index,
-                             std::array<float, 3>* xyz) {
+absl::Status ParseAsciiVertexLine(const PlyElement& vertex, const std::vector<int>& axis_of,
+                                  std::string_view line, std::uint64_t index,
+                                  std::array<float, 3>* xyz) {
     const auto too_few = [index] {
         return AsciiError(absl::StrCat("vertex ", index + 1, " has too few values"));
     };
@@ -75,9 +76,11 @@ absl::Status ParseVertexLine(const PlyElement& vertex, const std::vector<int>& a
     return absl::OkStatus();
 }
 
+namespace {
+
 absl::StatusOr<DecodedCloud> DecodeVertices(const PlyHeader& header, LineReader* lines) {
     const PlyElement& vertex = header.elements[header.vertex_element];
-    SOILVOL_RETURN_IF_ERROR(CheckFits(vertex, lines->remaining()));
+    SOILVOL_RETURN_IF_ERROR(CheckAsciiFits(vertex, lines->remaining()));
     std::vector<int> axis_of(vertex.properties.size(), -1);
     for (std::size_t axis = 0; axis < 3; ++axis) {
         axis_of[header.xyz_property[axis]] = static_cast<int>(axis);
@@ -86,8 +89,8 @@ absl::StatusOr<DecodedCloud> DecodeVertices(const PlyHeader& header, LineReader*
     std::string_view line;
     std::array<float, 3> xyz{};
     for (std::uint64_t i = 0; i < vertex.count; ++i) {
-        if (!lines->NextNonBlank(&line)) return EndsEarly(vertex, i);
-        SOILVOL_RETURN_IF_ERROR(ParseVertexLine(vertex, axis_of, line, i, &xyz));
+        if (!lines->NextNonBlank(&line)) return AsciiEndsEarly(vertex, i);
+        SOILVOL_RETURN_IF_ERROR(ParseAsciiVertexLine(vertex, axis_of, line, i, &xyz));
         sink.Add(xyz[0], xyz[1], xyz[2]);
     }
     return std::move(sink).Finish();
@@ -99,7 +102,7 @@ absl::StatusOr<DecodedCloud> DecodePlyAsciiBody(const PlyHeader& header, std::st
     LineReader lines(body);
     // Elements before the vertex element are skipped; lines after it are ignored.
     for (std::size_t e = 0; e < header.vertex_element; ++e) {
-        SOILVOL_RETURN_IF_ERROR(SkipElement(header.elements[e], &lines));
+        SOILVOL_RETURN_IF_ERROR(SkipAsciiElement(header.elements[e], &lines));
     }
     return DecodeVertices(header, &lines);
 }

@@ -17,14 +17,10 @@ absl::Status BodyError(absl::string_view what) {
     return absl::InvalidArgumentError(absl::StrCat("PLY body: ", what));
 }
 
-// Smallest size of one entry [bytes] (lists counted as empty); `fixed` when it has no lists.
-struct ElementLayout {
-    std::uint64_t min_stride = 0;
-    bool fixed = true;
-};
+}  // namespace
 
-ElementLayout LayoutOf(const PlyElement& element) {
-    ElementLayout layout;
+PlyEntryLayout LayoutOf(const PlyElement& element) {
+    PlyEntryLayout layout;
     for (const PlyProperty& property : element.properties) {
         if (property.list_count_type) {
             layout.min_stride += ScalarSize(*property.list_count_type);
@@ -36,9 +32,8 @@ ElementLayout LayoutOf(const PlyElement& element) {
     return layout;
 }
 
-// Checked before anything is allocated or walked: count entries of min_stride bytes must fit.
-absl::Status CheckFits(const PlyElement& element, const ElementLayout& layout,
-                       std::size_t available) {
+absl::Status CheckBinaryFits(const PlyElement& element, const PlyEntryLayout& layout,
+                             std::size_t available) {
     std::uint64_t needed = 0;
     if (!CheckedMul(element.count, layout.min_stride, &needed)) {
         return BodyError(absl::StrCat(element.name, " count ", element.count, " times ",
@@ -52,10 +47,8 @@ absl::Status CheckFits(const PlyElement& element, const ElementLayout& layout,
     return absl::OkStatus();
 }
 
-// Size of the entry at the front of `data`, walking list counts; stores each property's
-// offset in `offsets` when given.
-absl::StatusOr<std::size_t> EntrySize(const PlyElement& element, std::string_view data, bool swap,
-                                      std::vector<std::size_t>* offsets) {
+absl::StatusOr<std::size_t> BinaryEntrySize(const PlyElement& element, std::string_view data,
+                                            bool swap, std::vector<std::size_t>* offsets) {
     const auto truncated = [&element] {
         return BodyError(absl::StrCat("element '", element.name, "' is truncated"));
     };
@@ -84,25 +77,27 @@ absl::StatusOr<std::size_t> EntrySize(const PlyElement& element, std::string_vie
     return pos;
 }
 
-absl::StatusOr<std::size_t> SkipElement(const PlyElement& element, std::string_view data,
-                                        bool swap) {
-    const ElementLayout layout = LayoutOf(element);
-    SOILVOL_RETURN_IF_ERROR(CheckFits(element, layout, data.size()));
+absl::StatusOr<std::size_t> SkipBinaryElement(const PlyElement& element, std::string_view data,
+                                              bool swap) {
+    const PlyEntryLayout layout = LayoutOf(element);
+    SOILVOL_RETURN_IF_ERROR(CheckBinaryFits(element, layout, data.size()));
     if (layout.fixed) return element.count * layout.min_stride;
     std::size_t pos = 0;
     for (std::uint64_t i = 0; i < element.count; ++i) {
         SOILVOL_ASSIGN_OR_RETURN(const std::size_t size,
-                                 EntrySize(element, data.substr(pos), swap, nullptr));
+                                 BinaryEntrySize(element, data.substr(pos), swap, nullptr));
         pos += size;
     }
     return pos;
 }
 
+namespace {
+
 absl::StatusOr<DecodedCloud> DecodeVertices(const PlyHeader& header, std::string_view data,
                                             bool swap) {
     const PlyElement& vertex = header.elements[header.vertex_element];
-    const ElementLayout layout = LayoutOf(vertex);
-    SOILVOL_RETURN_IF_ERROR(CheckFits(vertex, layout, data.size()));
+    const PlyEntryLayout layout = LayoutOf(vertex);
+    SOILVOL_RETURN_IF_ERROR(CheckBinaryFits(vertex, layout, data.size()));
     std::array<ScalarType, 3> types{};
     for (std::size_t axis = 0; axis < 3; ++axis) {
         types[axis] = vertex.properties[header.xyz_property[axis]].type;
@@ -117,7 +112,7 @@ absl::StatusOr<DecodedCloud> DecodeVertices(const PlyHeader& header, std::string
             pos += layout.min_stride;  // offsets are the same for every entry
         } else {
             SOILVOL_ASSIGN_OR_RETURN(const std::size_t size,
-                                     EntrySize(vertex, data.substr(pos), swap, &offsets));
+                                     BinaryEntrySize(vertex, data.substr(pos), swap, &offsets));
             pos += size;
         }
         sink.Add(LoadCoordinate(entry + offsets[ix], types[0], swap),
@@ -142,7 +137,7 @@ absl::StatusOr<DecodedCloud> DecodePlyBinaryBody(const PlyHeader& header, std::s
     // Elements before the vertex element are skipped; elements after it are ignored.
     for (std::size_t e = 0; e < header.vertex_element; ++e) {
         SOILVOL_ASSIGN_OR_RETURN(const std::size_t size,
-                                 SkipElement(header.elements[e], body, swap));
+                                 SkipBinaryElement(header.elements[e], body, swap));
         body.remove_prefix(size);
     }
     return DecodeVertices(header, body, swap);

@@ -1,5 +1,7 @@
 #include "core/io/ply_header.hpp"
 
+#include <algorithm>
+#include <initializer_list>
 #include <utility>
 
 #include "absl/status/status.h"
@@ -39,7 +41,21 @@ absl::StatusOr<ScalarType> ParseType(std::string_view name) {
     return *type;
 }
 
-// Collects header lines in order, then checks the vertex element.
+// The index of the one item with one of `names`: nullopt for none, `repeated` for several.
+template <typename Item>
+absl::StatusOr<std::optional<std::size_t>> FindOne(const std::vector<Item>& items,
+                                                   std::initializer_list<std::string_view> names,
+                                                   absl::string_view repeated) {
+    std::optional<std::size_t> found;
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        if (std::find(names.begin(), names.end(), items[i].name) == names.end()) continue;
+        if (found) return HeaderError(repeated);
+        found = i;
+    }
+    return found;
+}
+
+// Collects header lines in order, then checks the vertex element (and a mesh's face element).
 class PlyHeaderParser {
   public:
     absl::Status ParseLine(const Tokens& tokens) {
@@ -51,10 +67,14 @@ class PlyHeaderParser {
         return HeaderError(absl::StrCat("unknown keyword '", Printable(keyword), "'"));
     }
 
-    absl::StatusOr<PlyHeader> Finish(std::size_t body_offset) && {
+    absl::StatusOr<PlyHeader> Finish(std::size_t body_offset, PlyContent content) && {
         if (!format_seen_) return HeaderError("missing format line");
         header_.body_offset = body_offset;
         SOILVOL_RETURN_IF_ERROR(FindVertexXyz());
+        if (content == PlyContent::kMesh) {
+            SOILVOL_RETURN_IF_ERROR(FindFaceIndices());
+            return std::move(header_);
+        }
         if (header_.elements[header_.vertex_element].count == 0) {
             return absl::InvalidArgumentError("cloud has no points (PLY vertex count is 0)");
         }
@@ -115,14 +135,11 @@ class PlyHeaderParser {
     }
 
     absl::Status FindVertexXyz() {
-        bool found = false;
-        for (std::size_t i = 0; i < header_.elements.size(); ++i) {
-            if (header_.elements[i].name != "vertex") continue;
-            if (found) return HeaderError("more than one vertex element");
-            header_.vertex_element = i;
-            found = true;
-        }
-        if (!found) return HeaderError("no vertex element");
+        SOILVOL_ASSIGN_OR_RETURN(
+            const std::optional<std::size_t> vertex,
+            FindOne(header_.elements, {"vertex"}, "more than one vertex element"));
+        if (!vertex) return HeaderError("no vertex element");
+        header_.vertex_element = *vertex;
         static constexpr const char* kAxes[] = {"x", "y", "z"};
         for (std::size_t axis = 0; axis < 3; ++axis) {
             SOILVOL_ASSIGN_OR_RETURN(header_.xyz_property[axis], FindCoordinate(kAxes[axis]));
@@ -132,12 +149,9 @@ class PlyHeaderParser {
 
     absl::StatusOr<std::size_t> FindCoordinate(const char* axis) const {
         const auto& properties = header_.elements[header_.vertex_element].properties;
-        std::optional<std::size_t> index;
-        for (std::size_t i = 0; i < properties.size(); ++i) {
-            if (properties[i].name != axis) continue;
-            if (index) return HeaderError(absl::StrCat("vertex property '", axis, "' repeats"));
-            index = i;
-        }
+        SOILVOL_ASSIGN_OR_RETURN(
+            const std::optional<std::size_t> index,
+            FindOne(properties, {axis}, absl::StrCat("vertex property '", axis, "' repeats")));
         if (!index) return HeaderError(absl::StrCat("vertex element has no '", axis, "' property"));
         const PlyProperty& property = properties[*index];
         if (property.list_count_type) {
@@ -151,13 +165,35 @@ class PlyHeaderParser {
         return *index;
     }
 
+    // A mesh's one `face` element and its integer list of vertex indices.
+    absl::Status FindFaceIndices() {
+        SOILVOL_ASSIGN_OR_RETURN(const std::optional<std::size_t> face,
+                                 FindOne(header_.elements, {"face"}, "more than one face element"));
+        if (!face) return HeaderError("no face element (a mesh needs one)");
+        header_.face_element = *face;
+        const auto& properties = header_.elements[*face].properties;
+        SOILVOL_ASSIGN_OR_RETURN(const std::optional<std::size_t> index,
+                                 FindOne(properties, {"vertex_indices", "vertex_index"},
+                                         "face element has more than one vertex index list"));
+        if (!index) return HeaderError("face element has no 'vertex_indices' list");
+        const PlyProperty& property = properties[*index];
+        if (!property.list_count_type) return HeaderError("face 'vertex_indices' is not a list");
+        if (IsFloating(property.type)) {
+            return HeaderError(absl::StrCat("face 'vertex_indices' has type ",
+                                            ScalarTypeName(property.type),
+                                            "; expected an integer type"));
+        }
+        header_.face_indices_property = *index;
+        return absl::OkStatus();
+    }
+
     PlyHeader header_;
     bool format_seen_ = false;
 };
 
 }  // namespace
 
-absl::StatusOr<PlyHeader> ParsePlyHeader(std::string_view bytes) {
+absl::StatusOr<PlyHeader> ParsePlyHeader(std::string_view bytes, PlyContent content) {
     LineReader lines(bytes, kMaxHeaderBytes);
     std::string_view line;
     if (!lines.Next(&line) || line != "ply") return HeaderError("missing 'ply' magic line");
@@ -170,7 +206,7 @@ absl::StatusOr<PlyHeader> ParsePlyHeader(std::string_view bytes) {
             if (!lines.last_line_terminated()) {
                 return HeaderError("end_header must be followed by a newline");
             }
-            return std::move(parser).Finish(lines.offset());
+            return std::move(parser).Finish(lines.offset(), content);
         }
         SOILVOL_RETURN_IF_ERROR(parser.ParseLine(tokens));
     }

@@ -13,17 +13,19 @@
 #include "core/common/statistics.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/model/model_cache.hpp"
+#include "core/model/thin_shell.hpp"
 #include "core/volume/surface_estimator.hpp"
 
 namespace soilvol::model {
 namespace {
 
 // Fig. 6: inside = over the opening and below it (plus a little above); the rest is outside.
-void SplitInsideOutside(const Cloud& points, const Opening& opening, const ModelConfig& config,
-                        Cloud& inside, Cloud& outside) {
+void SplitInsideOutside(const Cloud& points, const Eigen::Vector3d& sensor, const Opening& opening,
+                        const ModelConfig& config, Cloud& inside, Cloud& outside) {
     for (const auto& p : points) {
         const bool over = opening.polygon.Contains(p.head<2>().cast<double>());
-        if (over && static_cast<double>(p.z()) <= config.inside_above_m) {
+        if (over && static_cast<double>(p.z()) <= config.inside_above_m &&
+            EntersThroughOpening(sensor, p, opening.polygon)) {
             inside.push_back(p);
         } else {
             outside.push_back(p);
@@ -78,7 +80,9 @@ double ModelCell(const ContainerModel& model, const ModelConfig& config) {
 absl::Status MeasureNoise(const Cloud& points, const ModelConfig& config, ContainerModel& model,
                           const StopToken& stop) {
     Cloud inside, outside;
-    SplitInsideOutside(points, model.opening, config, inside, outside);
+    SplitInsideOutside(points,
+                       SensorInContainer(model.opening.T_scan_container, model.opening.polygon),
+                       model.opening, config, inside, outside);
     model.outside_points = outside.size();
     if (inside.size() < config.min_inside_points) {
         return absl::FailedPreconditionError(absl::StrCat(
@@ -144,6 +148,16 @@ WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& 
     return kept;
 }
 
+absl::StatusOr<volume::EmptySurface> ModelEmptySurface(const ContainerModel& model,
+                                                       const volume::Grid& grid,
+                                                       const volume::HeightmapConfig& config,
+                                                       const StopToken& stop) {
+    SOILVOL_ASSIGN_OR_RETURN(volume::EmptySurface empty,
+                             volume::EstimateEmptySurface(grid, model.cavity, config, stop));
+    ApplyWallPriors(model.walls, model.opening.polygon, grid, empty);
+    return empty;
+}
+
 double HeapVolume(const Polygon2d& opening, double slope) {
     return slope * opening.DistanceIntegral();
 }
@@ -180,7 +194,10 @@ absl::Status MakeAlignmentSet(const Cloud& points, const ModelConfig& config, Co
 absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
                        const ModelConfig& config, ContainerModel& model, const StopToken& stop) {
     Cloud inside, outside;
-    SplitInsideOutside(points, model.opening, config, inside, outside);
+    SplitInsideOutside(points, sensor, model.opening, config, inside, outside);
+    // What this view saw of the walls' outside stands for the inside it could not see.
+    MergeWalls(InnerFaceFromOutside(outside, sensor, model.opening.polygon, config.shell),
+               model.walls);
     SOILVOL_RETURN_IF_ERROR(stop.Check("structure"));
     const Cloud structure =
         StructurePoints(points, model.opening, config,
@@ -210,9 +227,8 @@ absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model,
     model.cache = std::make_shared<ModelCache>();
     SOILVOL_RETURN_IF_ERROR(stop.Check("empty surface"));
     const volume::Grid grid = volume::MakeGrid(model.opening.polygon, ModelCell(model, config));
-    SOILVOL_ASSIGN_OR_RETURN(
-        const volume::EmptySurface empty,
-        volume::EstimateEmptySurface(grid, model.cavity, config.heightmap, stop));
+    SOILVOL_ASSIGN_OR_RETURN(const volume::EmptySurface empty,
+                             ModelEmptySurface(model, grid, config.heightmap, stop));
     model.observed_share = empty.area_m2 > 0.0 ? empty.observed_area_m2 / empty.area_m2 : 0.0;
     model.struck_capacity_m3 = 0.0;
     double lowest = 0.0;

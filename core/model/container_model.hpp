@@ -9,6 +9,7 @@
 #include "core/common/stop_token.hpp"
 #include "core/common/types.hpp"
 #include "core/model/opening.hpp"
+#include "core/model/thin_shell.hpp"
 #include "core/volume/heightmap_volume.hpp"
 
 namespace soilvol::model {
@@ -35,6 +36,7 @@ struct ModelConfig {
     std::size_t min_inside_points = 30;
     std::size_t min_alignment_points = 30;
     volume::HeightmapConfig heightmap;  ///< used for the empty surface and the capacities
+    ThinShellConfig shell;              ///< the inner face of walls seen only from outside
 };
 
 class ModelCache;
@@ -52,6 +54,7 @@ struct ContainerModel {
     double smoothing_radius_m = 0.0;      ///< of the alignment set; each scan is smoothed alike
     Cloud alignment_points;               ///< outside points used for ICP
     Cloud alignment_normals;              ///< unit normals of alignment_points
+    std::vector<WallPrior> walls;         ///< inner faces inferred from outside (thin shell)
     double depth_m = 0.0;                 ///< opening plane to the lowest empty-surface cell
     double struck_capacity_m3 = 0.0;      ///< empty surface to the opening plane
     double heaped_capacity_sae_m3 = 0.0;  ///< struck + 1:1 heap (SAE J296)
@@ -100,6 +103,13 @@ align::AlignResult AlignModel(const ContainerModel& model, const Cloud& scan, co
 /// The points of `points` (container frame) farther than the model's structure radius from its
 /// structure, with their weights.
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points);
+
+/// The empty container's surface over `grid`: fitted to the empty scans' insides (cavity), raised
+/// to the walls the thin-shell prior infers.
+absl::StatusOr<volume::EmptySurface> ModelEmptySurface(const ContainerModel& model,
+                                                       const volume::Grid& grid,
+                                                       const volume::HeightmapConfig& config,
+                                                       const StopToken& stop = {});
 
 /// Struck capacity [m^3] from an empty surface: sum over cells of area x depth below z = 0.
 /// Heaped capacity adds slope x the integral of the distance to the opening edge:

@@ -142,6 +142,17 @@ std::string EncodePayload(const ContainerModel& model) {
         w.PutFloats(c.weights);
         for (int i = 0; i < 3; ++i) w.Put<double>(c.sensor[i]);
     }
+    w.Put<uint32_t>(static_cast<uint32_t>(model.walls.size()));
+    for (const WallPrior& wall : model.walls) {
+        w.Put<int32_t>(wall.edge);
+        w.Put<double>(wall.thickness_m);
+        w.Put<uint64_t>(wall.support);
+        w.Put<uint32_t>(static_cast<uint32_t>(wall.profile.size()));
+        for (const Eigen::Vector2d& p : wall.profile) {
+            w.Put<double>(p.x());
+            w.Put<double>(p.y());
+        }
+    }
     for (const double value :
          {model.structure_radius_m, model.smoothing_radius_m, model.column_top_m,
           model.observed_share, model.depth_m, model.struck_capacity_m3,
@@ -153,7 +164,7 @@ std::string EncodePayload(const ContainerModel& model) {
     return w.Take();
 }
 
-absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
+absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload, uint32_t version) {
     Reader r(payload);
     ContainerModel model;
     model.opening.T_scan_container = GetPose(r);
@@ -184,6 +195,28 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload) {
             r.Fail("cavity points and weights differ in count");
         for (int i = 0; i < 3; ++i) c.sensor[i] = r.GetFinite("cavity sensor");
         model.cavity.push_back(std::move(c));
+    }
+    // Version 2 had no thin-shell prior.
+    const uint32_t walls = version >= 3 ? r.Get<uint32_t>() : 0;
+    if (walls > kMaxPolygonVertices) r.Fail("wall count is invalid");
+    for (uint32_t j = 0; r.ok() && j < walls; ++j) {
+        WallPrior wall;
+        wall.edge = r.Get<int32_t>();
+        if (wall.edge < 0 ||
+            static_cast<std::size_t>(wall.edge) >= model.opening.polygon.Vertices().size())
+            r.Fail("wall edge is out of range");
+        wall.thickness_m = r.GetFinite("wall thickness");
+        wall.support = r.Get<uint64_t>();
+        const uint32_t points = r.Get<uint32_t>();
+        if (!r.ok() || points > r.Remaining() / (2 * sizeof(double))) {
+            r.Fail("wall profile count exceeds the payload");
+            break;
+        }
+        for (uint32_t i = 0; r.ok() && i < points; ++i) {
+            const double z = r.GetFinite("wall profile");
+            wall.profile.emplace_back(z, r.GetFinite("wall profile"));
+        }
+        model.walls.push_back(std::move(wall));
     }
     model.structure_radius_m = r.GetFinite("structure radius");
     model.smoothing_radius_m = r.GetFinite("smoothing radius");
@@ -227,9 +260,10 @@ absl::StatusOr<ContainerModel> DecodeModel(std::string_view bytes) {
     const uint32_t version = header.Get<uint32_t>();
     header.Get<uint32_t>();
     const uint64_t size = header.Get<uint64_t>();
-    if (version != kModelCodecVersion) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            "container model: version ", version, " (this build reads ", kModelCodecVersion, ")"));
+    if (version < kOldestModelCodecVersion || version > kModelCodecVersion) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("container model: version ", version, " (this build reads ",
+                         kOldestModelCodecVersion, " to ", kModelCodecVersion, ")"));
     }
     if (size != bytes.size() - kHeaderBytes - 8) {
         return absl::DataLossError(
@@ -240,7 +274,7 @@ absl::StatusOr<ContainerModel> DecodeModel(std::string_view bytes) {
     if (tail.Get<uint64_t>() != Fnv1a64(payload)) {
         return absl::DataLossError("container model: checksum mismatch (the file is damaged)");
     }
-    return DecodePayload(payload);
+    return DecodePayload(payload, version);
 }
 
 }  // namespace soilvol::model

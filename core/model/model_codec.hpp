@@ -9,8 +9,10 @@
 
 namespace soilvol::model {
 
-/// Version of the binary model layout; other versions are refused on decoding.
-inline constexpr uint32_t kModelCodecVersion = 2;
+/// Version of the binary model layout written; versions from kOldestModelCodecVersion up are
+/// read (version 2 had no thin-shell walls), others refused.
+inline constexpr uint32_t kModelCodecVersion = 3;
+inline constexpr uint32_t kOldestModelCodecVersion = 2;
 
 /// The model as bytes: magic "SOILVOLM", version, payload size, payload (little-endian), and a
 /// 64-bit FNV-1a checksum of the payload.

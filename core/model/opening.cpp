@@ -187,4 +187,22 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners, const Cloud& empty_s
     return opening;
 }
 
+bool EntersThroughOpening(const Eigen::Vector3d& sensor, const Eigen::Vector3f& p,
+                          const Polygon2d& opening) {
+    const double z = static_cast<double>(p.z());
+    if (z >= 0.0 || sensor.z() <= 0.0) return true;
+    const double t = sensor.z() / (sensor.z() - z);
+    const Eigen::Vector3d crossing = sensor + t * (p.cast<double>() - sensor);
+    return opening.Contains(crossing.head<2>());
+}
+
+Cloud ThroughOpening(const Cloud& points, const Eigen::Vector3d& sensor, const Polygon2d& opening) {
+    Cloud kept;
+    kept.reserve(points.size());
+    for (const Eigen::Vector3f& p : points) {
+        if (EntersThroughOpening(sensor, p, opening)) kept.push_back(p);
+    }
+    return kept;
+}
+
 }  // namespace soilvol::model

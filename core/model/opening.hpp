@@ -33,6 +33,17 @@ struct Opening {
 absl::StatusOr<Opening> MakeOpening(const Corners& corners_scan, const Cloud& empty_scan,
                                     const OpeningConfig& config);
 
+/// Whether the ray from `sensor` to `p` (container frame) reached p through the opening: a
+/// return below the opening plane is inside the container only if its ray crossed that plane
+/// within the opening polygon. One that did not came through a wall: the outside of a wall that
+/// leans over the opening (a body or bucket narrowing towards its floor), seen from outside.
+/// Returns above the plane, and rays from a sensor not above it, pass.
+bool EntersThroughOpening(const Eigen::Vector3d& sensor, const Eigen::Vector3f& p,
+                          const Polygon2d& opening);
+
+/// The points of `points` (container frame, seen from `sensor`) that EntersThroughOpening.
+Cloud ThroughOpening(const Cloud& points, const Eigen::Vector3d& sensor, const Polygon2d& opening);
+
 /// `points` mapped from the scan frame into the container frame by `T_scan_container`.
 Cloud ToContainerFrame(const Cloud& points, const Pose& T_scan_container);
 /// The inverse: container-frame points into the scan frame.

@@ -216,36 +216,57 @@ absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, cons
     return out;
 }
 
+volume::EmptySide EmptySideOf(const model::ContainerModel& model, const EstimateConfig& config,
+                              const StopToken& stop) {
+    if (!model.cache) {
+        return {volume::EmptyMinZ(model.cavity),
+                [&model, &config, &stop](const volume::Grid& grid)
+                    -> absl::StatusOr<std::shared_ptr<const volume::EmptySurface>> {
+                    SOILVOL_ASSIGN_OR_RETURN(
+                        volume::EmptySurface surface,
+                        model::ModelEmptySurface(model, grid, config.heightmap, stop));
+                    return std::make_shared<const volume::EmptySurface>(std::move(surface));
+                }};
+    }
+    model::ModelCache& cache = *model.cache;
+    return {cache.EmptyMinZ(model), [&model, &cache, &config, &stop](const volume::Grid& grid) {
+                return cache.EmptySurface(model, grid, config.heightmap, stop);
+            }};
+}
+
 absl::StatusOr<volume::VolumeResult> IntegrateVolume(const model::ContainerModel& model,
                                                      const Cloud& aligned,
                                                      const Pose& T_scan_container,
                                                      const EstimateConfig& config,
                                                      const StopToken& stop) {
-    const Polygon2d& opening = model.opening.polygon;
     if (config.method == volume::Method::kPaper) {
-        const WeightedCloud column = volume::SelectColumn(WeightedCloud{aligned, {}}, opening,
-                                                          -model.depth_m, config.heightmap);
-        return volume::PaperVolume(model.inside, column.points, opening, config.paper, stop);
+        const WeightedCloud column = volume::SelectColumn(
+            WeightedCloud{aligned, {}}, model.opening.polygon, -model.depth_m, config.heightmap);
+        return volume::PaperVolume(model.inside, column.points, model.opening.polygon, config.paper,
+                                   stop);
     }
-    // Returns of the container's own rim and outside are not contents; every other return
-    // weighs by what it tells of the height under it, seen along its ray.
-    const WeightedCloud selected =
-        volume::SelectColumn(WeightedCloud{aligned, {}}, opening, -model.depth_m, config.heightmap);
+    return IntegrateVolume(model, aligned, T_scan_container, config,
+                           EmptySideOf(model, config, stop), stop);
+}
+
+absl::StatusOr<volume::VolumeResult> IntegrateVolume(
+    const model::ContainerModel& model, const Cloud& aligned, const Pose& T_scan_container,
+    const EstimateConfig& config, const volume::EmptySide& empty, const StopToken& stop) {
+    const Polygon2d& opening = model.opening.polygon;
+    // Returns of the container's own rim and outside are not contents (a return under the
+    // opening whose ray came through a wall is the wall's outside); every other return weighs
+    // by what it tells of the height under it, seen along its ray.
+    const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
+    const WeightedCloud selected = volume::SelectColumn(
+        WeightedCloud{model::ThroughOpening(aligned, sensor, opening), {}, sensor}, opening,
+        -model.depth_m, config.heightmap);
     SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
     WeightedCloud column = model::RemoveStructure(model, selected);
-    const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
     SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
     column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
                                        config.heightmap.ray_weights, stop);
     column.sensor = sensor;
     SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
-    if (!model.cache)
-        return volume::HeightmapVolume(model.cavity, column, opening, config.heightmap, stop);
-    model::ModelCache& cache = *model.cache;
-    const volume::EmptySide empty{cache.EmptyMinZ(model), [&](const volume::Grid& grid) {
-                                      return cache.EmptySurface(model, grid, config.heightmap,
-                                                                stop);
-                                  }};
     return volume::HeightmapVolume(empty, column, opening, config.heightmap, stop);
 }
 

@@ -120,6 +120,16 @@ absl::StatusOr<volume::VolumeResult> IntegrateVolume(const model::ContainerModel
                                                      const EstimateConfig& config,
                                                      const StopToken& stop = {});
 
+/// The empty container as the model gives it to HeightmapVolume: from its cache when it has one.
+volume::EmptySide EmptySideOf(const model::ContainerModel& model, const EstimateConfig& config,
+                              const StopToken& stop = {});
+
+/// IntegrateVolume (HEIGHTMAP) with the empty surface taken from `empty` instead of the model's
+/// own (the error budget swaps the simulator's truth in here).
+absl::StatusOr<volume::VolumeResult> IntegrateVolume(
+    const model::ContainerModel& model, const Cloud& aligned, const Pose& T_scan_container,
+    const EstimateConfig& config, const volume::EmptySide& empty, const StopToken& stop = {});
+
 /// Sec. 3.1-3.4 in order: preprocess the scan, align the model's outside to it, refuse a bad
 /// alignment (FailedPrecondition with the figures), integrate the soil with the chosen method.
 /// InvalidArgument for an empty scan; DeadlineExceeded or Cancelled, naming the stage, once

@@ -1,7 +1,10 @@
 // Writes the seed inputs that come from soilvol's own encoders into <dir>/<target>/: a stored
-// model and PCD/PLY clouds in every encoding (the stored calibration record's seed is committed).
+// model, PCD/PLY clouds in every encoding and a cube mesh in every mesh format (the stored
+// calibration record's seed is committed).
 // scripts/fuzz.sh adds them to the committed hand-made seeds in tests/fuzz/corpus/ before each run.
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -10,6 +13,7 @@
 #include <vector>
 
 #include "core/io/cloud_codec.hpp"
+#include "core/io/mesh_codec.hpp"
 #include "core/model/model_codec.hpp"
 
 namespace {
@@ -59,6 +63,86 @@ soilvol::model::ContainerModel SmallModel() {
     return model;
 }
 
+// The unit cube: 8 corners, 12 triangles counter-clockwise seen from outside.
+soilvol::io::DecodedMesh Cube() {
+    soilvol::io::DecodedMesh cube;
+    for (int i = 0; i < 8; ++i) {
+        cube.vertices.emplace_back((i + 1) / 2 % 2, i / 2 % 2, i / 4);
+    }
+    cube.triangles = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                      {3, 7, 6}, {3, 6, 2}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5}};
+    return cube;
+}
+
+std::string Xyz(const Eigen::Vector3d& v) {
+    return std::to_string(v.x()) + " " + std::to_string(v.y()) + " " + std::to_string(v.z());
+}
+
+// OBJ: 1-based indices for half the faces, negative relative ones and v/vt/vn for the rest.
+std::string CubeObj(const soilvol::io::DecodedMesh& cube) {
+    std::string out = "# cube\no cube\n";
+    for (const Eigen::Vector3d& v : cube.vertices) out += "v " + Xyz(v) + "\n";
+    out += "vt 0 0\nvn 0 0 1\n";
+    for (std::size_t i = 0; i < cube.triangles.size(); ++i) {
+        out += "f";
+        for (int k = 0; k < 3; ++k) {
+            const int index = cube.triangles[i][k];
+            out += i % 2 == 0 ? " " + std::to_string(index + 1)
+                              : " " + std::to_string(index - 8) + "/1/1";
+        }
+        out += "\n";
+    }
+    return out;
+}
+
+template <typename T>
+void AppendBytes(T value, bool big_endian, std::string* out) {
+    char bytes[sizeof(T)];
+    std::memcpy(bytes, &value, sizeof(T));
+    for (std::size_t i = 0; i < sizeof(T); ++i) {
+        out->push_back(bytes[big_endian ? sizeof(T) - 1 - i : i]);
+    }
+}
+
+const char* PlyFormatName(soilvol::io::PlyEncoding encoding) {
+    switch (encoding) {
+        case soilvol::io::PlyEncoding::kAscii:
+            return "ascii";
+        case soilvol::io::PlyEncoding::kBinaryLittleEndian:
+            return "binary_little_endian";
+        case soilvol::io::PlyEncoding::kBinaryBigEndian:
+            return "binary_big_endian";
+    }
+    return "ascii";
+}
+
+// PLY with a uchar-counted int face list, in the given encoding.
+std::string CubePly(const soilvol::io::DecodedMesh& cube, soilvol::io::PlyEncoding encoding) {
+    using soilvol::io::PlyEncoding;
+    const bool ascii = encoding == PlyEncoding::kAscii;
+    const bool big = encoding == PlyEncoding::kBinaryBigEndian;
+    std::string out = std::string("ply\nformat ") + PlyFormatName(encoding) +
+                      " 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 12\n"
+                      "property list uchar int vertex_indices\nend_header\n";
+    for (const Eigen::Vector3d& v : cube.vertices) {
+        if (ascii) out += Xyz(v) + "\n";
+        for (int axis = 0; axis < 3 && !ascii; ++axis) {
+            AppendBytes(static_cast<float>(v[axis]), big, &out);
+        }
+    }
+    for (const Eigen::Vector3i& t : cube.triangles) {
+        if (ascii) {
+            out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " +
+                   std::to_string(t[2]) + "\n";
+            continue;
+        }
+        AppendBytes(std::uint8_t{3}, big, &out);
+        for (int k = 0; k < 3; ++k) AppendBytes(std::int32_t{t[k]}, big, &out);
+    }
+    return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -85,6 +169,15 @@ int main(int argc, char** argv) {
           std::string(1, '\0') + soilvol::io::EncodePcd(cloud, PcdEncoding::kBinaryCompressed));
     Write(root / "fuzz_cloud_decoder", "raw",
           std::string(1, '\x01') + soilvol::io::EncodeRawXyzF32(cloud));
+    // The unit cube in every mesh format.
+    const soilvol::io::DecodedMesh cube = Cube();
+    const fs::path meshes = root / "fuzz_mesh_decoder";
+    Write(meshes, "cube_binary.stl", soilvol::io::EncodeStl(cube));
+    Write(meshes, "cube_ascii.stl", soilvol::io::EncodeStl(cube, /*binary=*/false));
+    Write(meshes, "cube.obj", CubeObj(cube));
+    Write(meshes, "cube_ascii.ply", CubePly(cube, PlyEncoding::kAscii));
+    Write(meshes, "cube_little_endian.ply", CubePly(cube, PlyEncoding::kBinaryLittleEndian));
+    Write(meshes, "cube_big_endian.ply", CubePly(cube, PlyEncoding::kBinaryBigEndian));
     // The model target reads its first byte as a switch: even, a whole file; odd, a payload it
     // frames (here: the payload of the same model).
     const std::string model = soilvol::model::EncodeModel(SmallModel());

@@ -110,3 +110,35 @@ TEST(OpeningTest, NoPointOverTheOpeningIsRejected) {
 
 }  // namespace
 }  // namespace soilvol::model
+
+namespace soilvol::model {
+namespace {
+
+// A 2 x 1 m opening, a sensor 2 m in front (-y) and 2 m above it.
+const Polygon2d kOpening({{-1.0, -0.5}, {1.0, -0.5}, {1.0, 0.5}, {-1.0, 0.5}});
+const Eigen::Vector3d kFront(0.0, -2.5, 2.0);
+
+TEST(EntersThroughOpeningTest, ReturnsOnTheFloorAndFarWallCameThroughTheOpening) {
+    EXPECT_TRUE(EntersThroughOpening(kFront, Eigen::Vector3f(0.0f, 0.3f, -0.6f), kOpening));
+    EXPECT_TRUE(EntersThroughOpening(kFront, Eigen::Vector3f(0.5f, 0.5f, -0.2f), kOpening));
+}
+
+TEST(EntersThroughOpeningTest, TheOutsideOfAWallLeaningOverTheOpeningCameThroughTheWall) {
+    // The near wall leans in by 10 cm over its 0.8 m: its outside at 0.6 m depth lies 5 cm
+    // inside the edge, and the ray to it crosses the opening plane 0.4 m in front of the edge.
+    const Eigen::Vector3f outside(0.0f, -0.45f, -0.6f);
+    EXPECT_FALSE(EntersThroughOpening(kFront, outside, kOpening));
+    const Cloud kept =
+        ThroughOpening({outside, Eigen::Vector3f(0.0f, 0.3f, -0.6f)}, kFront, kOpening);
+    ASSERT_EQ(kept.size(), 1u);
+    EXPECT_FLOAT_EQ(kept[0].y(), 0.3f);
+}
+
+TEST(EntersThroughOpeningTest, ReturnsAboveThePlaneAndSensorsBelowItPass) {
+    EXPECT_TRUE(EntersThroughOpening(kFront, Eigen::Vector3f(0.0f, -0.45f, 0.2f), kOpening));
+    EXPECT_TRUE(EntersThroughOpening(Eigen::Vector3d(0.0, -2.5, -0.5),
+                                     Eigen::Vector3f(0.0f, -0.45f, -0.6f), kOpening));
+}
+
+}  // namespace
+}  // namespace soilvol::model

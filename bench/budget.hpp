@@ -1,0 +1,22 @@
+#pragma once
+
+#include <ostream>
+#include <string>
+
+namespace soilvol::bench {
+
+/// The error budget: every estimate of the families table (each family, sensor and
+/// registration kind) split by substituting the simulator's truth for one stage at a time:
+///   pose  = estimate at the found pose - estimate at the true pose
+///   empty = the latter - the same with the true empty surface
+///   soil  = the latter - the true soil surface integrated over the same grid
+///   grid  = the latter - the true volume (the grid's own quadrature)
+/// The four terms sum to the error. In % of the true struck capacity.
+std::string BudgetTable(int seeds, std::ostream& kv);
+
+/// The found pose against the true one on the paper bucket (4 cm noise, 0.5 deg, moves up to
+/// 3 deg / 5 cm), at every fill of Table 1: the opening centre's height error along its normal
+/// and the tilt, median and 95th percentile.
+std::string PoseTable(int seeds, std::ostream& kv);
+
+}  // namespace soilvol::bench
