@@ -36,10 +36,39 @@ struct Split {
     double empty_wall = 0.0, empty_flat = 0.0, scan_wall = 0.0, scan_flat = 0.0;
 };
 
-// The exact empty surface on any grid of the model frame (the simulator's inner surface).
-volume::EmptySide TrueEmpty(const sim::ContainerGeometry& geometry, const Pose& T_sim_model) {
+// A cell's true value: the mean of `f` (model frame) over 4 x 4 samples of the cell's part
+// inside the opening (its anchor when none falls there), as a grid can hold a surface.
+template <class F>
+double CellMean(const volume::Grid& grid, const Polygon2d& opening, std::size_t k, const F& f) {
+    constexpr int kSub = 4;
+    const Eigen::Vector2d lo =
+        grid.Center(static_cast<int>(k)) - Eigen::Vector2d::Constant(0.5 * grid.cell_m);
+    double sum = 0.0;
+    int n = 0;
+    for (int i = 0; i < kSub; ++i) {
+        for (int j = 0; j < kSub; ++j) {
+            const Eigen::Vector2d xy =
+                lo + grid.cell_m * Eigen::Vector2d((i + 0.5) / kSub, (j + 0.5) / kSub);
+            if (!opening.Contains(xy)) continue;
+            sum += f(xy);
+            ++n;
+        }
+    }
+    return n > 0 ? sum / n : f(grid.anchor[k]);
+}
+
+// The simulator's inner surface at (x, y) of the model frame.
+double TrueEmptyAt(const sim::ContainerGeometry& geometry, const Pose& T_sim_model,
+                   const Eigen::Vector2d& xy) {
+    const Eigen::Vector3d p = T_sim_model * Eigen::Vector3d(xy.x(), xy.y(), 0.0);
+    return geometry.InnerSurfaceZ(p.x(), p.y()) - p.z();
+}
+
+// The exact empty surface on any grid of the model frame, cell means.
+volume::EmptySide TrueEmpty(const sim::ContainerGeometry& geometry, const Polygon2d& opening,
+                            const Pose& T_sim_model) {
     return {-geometry.depth_m,
-            [&geometry, T_sim_model](const volume::Grid& grid)
+            [&geometry, &opening, T_sim_model](const volume::Grid& grid)
                 -> absl::StatusOr<std::shared_ptr<const volume::EmptySurface>> {
                 auto out = std::make_shared<volume::EmptySurface>();
                 const auto n = static_cast<std::size_t>(grid.NumCells());
@@ -50,9 +79,9 @@ volume::EmptySide TrueEmpty(const sim::ContainerGeometry& geometry, const Pose& 
                 out->unobserved_sigma_m.assign(n, 0.0);
                 for (std::size_t k = 0; k < n; ++k) {
                     if (grid.weight[k] <= 0.0) continue;
-                    const Eigen::Vector3d p =
-                        T_sim_model * Eigen::Vector3d(grid.anchor[k].x(), grid.anchor[k].y(), 0.0);
-                    out->map.height[k] = geometry.InnerSurfaceZ(p.x(), p.y()) - p.z();
+                    out->map.height[k] = CellMean(grid, opening, k, [&](const Eigen::Vector2d& xy) {
+                        return TrueEmptyAt(geometry, T_sim_model, xy);
+                    });
                     out->map.support[k] = 1;
                     out->map.observed[k] = 1.0;
                     out->area_m2 += grid.weight[k];
@@ -63,17 +92,19 @@ volume::EmptySide TrueEmpty(const sim::ContainerGeometry& geometry, const Pose& 
             }};
 }
 
-// The true soil volume over a grid of the model frame, cell by cell at the anchors.
-double TrueOnGrid(const volume::Grid& grid, const sim::ContainerGeometry& geometry,
-                  const sim::SoilSurface& soil, const Pose& T_sim_model) {
+// The true soil volume over a grid of the model frame, cell means.
+double TrueOnGrid(const volume::Grid& grid, const Polygon2d& opening,
+                  const sim::ContainerGeometry& geometry, const sim::SoilSurface& soil,
+                  const Pose& T_sim_model) {
     if (soil.Empty()) return 0.0;
     double v = 0.0;
     for (std::size_t k = 0; k < grid.weight.size(); ++k) {
         if (grid.weight[k] <= 0.0) continue;
-        const Eigen::Vector3d p =
-            T_sim_model * Eigen::Vector3d(grid.anchor[k].x(), grid.anchor[k].y(), 0.0);
-        v += grid.weight[k] *
-             std::max(0.0, soil.SurfaceZ(p.x(), p.y()) - geometry.InnerSurfaceZ(p.x(), p.y()));
+        v += grid.weight[k] * CellMean(grid, opening, k, [&](const Eigen::Vector2d& xy) {
+                 const Eigen::Vector3d p = T_sim_model * Eigen::Vector3d(xy.x(), xy.y(), 0.0);
+                 return std::max(0.0, soil.SurfaceZ(p.x(), p.y()) - p.z() -
+                                          TrueEmptyAt(geometry, T_sim_model, xy));
+             });
     }
     return v;
 }
@@ -89,37 +120,41 @@ Split SplitError(const RegisteredModel& reg, const sim::ContainerGeometry& geome
     const cloud::PreprocessResult pre = cloud::Preprocess(scene.points, config.preprocess);
     const Cloud aligned = model::ToContainerFrame(pre.points, T_true);
     const auto at_pose = pipeline::IntegrateVolume(model, aligned, T_true, config);
-    const auto with_empty = pipeline::IntegrateVolume(model, aligned, T_true, config,
-                                                      TrueEmpty(geometry, reg.sim_to_model));
+    const auto with_empty =
+        pipeline::IntegrateVolume(model, aligned, T_true, config,
+                                  TrueEmpty(geometry, model.opening.polygon, reg.sim_to_model));
     if (!at_pose.ok() || !with_empty.ok()) {
         out.refused = true;
         return out;
     }
-    const double on_grid = TrueOnGrid(with_empty->grid, geometry, soil, reg.sim_to_model);
+    const double on_grid =
+        TrueOnGrid(with_empty->grid, model.opening.polygon, geometry, soil, reg.sim_to_model);
     {
+        // Where the surfaces' errors lie: cells whose true empty surface falls by more than a
+        // cell across them (walls), and the rest.
         const volume::Grid& g = at_pose->grid;
+        const Polygon2d& opening = model.opening.polygon;
         for (std::size_t k = 0; k < g.weight.size(); ++k) {
             if (g.weight[k] <= 0.0) continue;
-            const auto z = [&](double dx, double dy) {
-                const Eigen::Vector3d p =
-                    reg.sim_to_model *
-                    Eigen::Vector3d(g.anchor[k].x() + dx, g.anchor[k].y() + dy, 0.0);
-                return geometry.InnerSurfaceZ(p.x(), p.y()) - p.z();
-            };
-            const double h = 0.5 * g.cell_m;
             double lo = 1e9, hi = -1e9;
+            const double h = 0.5 * g.cell_m;
             for (const double dx : {-h, 0.0, h}) {
                 for (const double dy : {-h, 0.0, h}) {
-                    lo = std::min(lo, z(dx, dy));
-                    hi = std::max(hi, z(dx, dy));
+                    const double z = TrueEmptyAt(geometry, reg.sim_to_model,
+                                                 g.anchor[k] + Eigen::Vector2d(dx, dy));
+                    lo = std::min(lo, z), hi = std::max(hi, z);
                 }
             }
             const bool wall = hi - lo > g.cell_m;
-            const Eigen::Vector3d p =
-                reg.sim_to_model * Eigen::Vector3d(g.anchor[k].x(), g.anchor[k].y(), 0.0);
-            const double e_true = z(0.0, 0.0);
-            const double f_true =
-                soil.Empty() ? e_true : std::max(e_true, soil.SurfaceZ(p.x(), p.y()));
+            const auto empty_at = [&](const Eigen::Vector2d& xy) {
+                return TrueEmptyAt(geometry, reg.sim_to_model, xy);
+            };
+            const double e_true = CellMean(g, opening, k, empty_at);
+            const double f_true = CellMean(g, opening, k, [&](const Eigen::Vector2d& xy) {
+                const Eigen::Vector3d p = reg.sim_to_model * Eigen::Vector3d(xy.x(), xy.y(), 0.0);
+                const double e = empty_at(xy);
+                return soil.Empty() ? e : std::max(e, soil.SurfaceZ(p.x(), p.y()) - p.z());
+            });
             const double f_est = at_pose->scan_surface_m[k];
             const double e_est = f_est - at_pose->soil_height_m[k];
             (wall ? out.empty_wall : out.empty_flat) += pct * g.weight[k] * (e_true - e_est);
@@ -213,16 +248,18 @@ constexpr const char* kHeader =
 std::string BudgetTable(int seeds, std::ostream& kv) {
     std::map<std::string, Row> by_family, by_noise;
     std::vector<std::string> family_order, noise_order;
-    for (const int scans : {1, 2}) {
+    for (const int scans : {1, 2, 0}) {  // 0: from the mesh
         for (const sim::ContainerFamily family : sim::AllFamilies()) {
             const std::string name = sim::FamilyName(family);
-            const std::string family_key = absl::StrFormat("%s | %d empty", name, scans);
+            const std::string kind = scans > 0 ? absl::StrFormat("%d empty", scans) : "mesh";
+            const std::string family_key = absl::StrFormat("%s | %s", name, kind);
             if (!by_family.count(family_key)) family_order.push_back(family_key);
             Row& row = by_family[family_key];
             for (int seed = 1; seed <= seeds; ++seed) {
-                const Setup setup = FamilySetup(family, seed, scans);
-                const std::string noise_key = absl::StrFormat(
-                    "%.0f cm | %d empty", 100.0 * setup.sensor.range_noise_sigma_m, scans);
+                Setup setup = FamilySetup(family, seed, std::max(scans, 1));
+                setup.from_mesh = scans == 0;
+                const std::string noise_key =
+                    absl::StrFormat("%.0f cm | %s", 100.0 * setup.sensor.range_noise_sigma_m, kind);
                 if (!by_noise.count(noise_key)) noise_order.push_back(noise_key);
                 Row& noise_row = by_noise[noise_key];
                 const RegisteredModel reg = RegisterEmpty(setup, static_cast<uint64_t>(seed));

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "core/common/timer.hpp"
+#include "core/model/mesh_model.hpp"
 #include "core/pipeline/registration.hpp"
 
 namespace soilvol::bench {
@@ -76,6 +77,19 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
     }
     RegisteredModel out{absl::UnknownError("not run"), empty.struck_capacity_m3, 0.0};
     Timer timer;
+    if (setup.from_mesh) {
+        const sim::ContainerGeometry geometry =
+            setup.shape ? sim::MakeContainer(*setup.shape) : sim::MakeContainer(setup.container);
+        out.model =
+            model::BuildMeshModel({geometry.vertices, geometry.triangles}, geometry.opening_corners,
+                                  empty.T_scan_container, setup.sensor.range_noise_sigma_m, {});
+        out.register_ms = timer.Lap();
+        if (out.model.ok()) {
+            out.sim_to_model =
+                empty.T_scan_container.inverse() * out.model->opening.T_scan_container;
+        }
+        return out;
+    }
     auto reg = pipeline::RegisterContainer(corners, scans, pipeline::RegistrationConfig{});
     out.register_ms = timer.Lap();
     if (reg.ok()) {

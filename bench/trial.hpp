@@ -22,6 +22,9 @@ struct Setup {
     /// Empty scans the model is registered from; each after the first sees the container
     /// turned half way round (the sensor's azimuth + 180 deg), its corners marked.
     int empty_scans = 1;
+    /// Registered from the container's mesh (the simulator's, exact) instead of empty scans,
+    /// placed where the first empty scan sees the container, with the sensor's range noise.
+    bool from_mesh = false;
     /// A fixed move of the container before each filled scan (its own frame), on top of the
     /// jitter.
     Pose move = Pose::Identity();

@@ -21,6 +21,12 @@ struct WeightedCloud {
 /// A rigid transform; `T_a_b` maps points from frame b into frame a.
 using Pose = Eigen::Isometry3d;
 
+/// A triangle mesh [m]: vertices and the indices of each triangle's corners.
+struct TriangleMesh {
+    std::vector<Eigen::Vector3d> vertices;
+    std::vector<Eigen::Vector3i> triangles;
+};
+
 /// The four opening corners [m], ordered around the opening.
 using Corners = std::array<Eigen::Vector3d, 4>;
 

@@ -12,6 +12,7 @@
 #include "core/cloud/voxel_grid.hpp"
 #include "core/common/statistics.hpp"
 #include "core/common/status_macros.hpp"
+#include "core/model/mesh_model.hpp"
 #include "core/model/model_cache.hpp"
 #include "core/model/thin_shell.hpp"
 #include "core/volume/surface_estimator.hpp"
@@ -97,12 +98,12 @@ absl::Status MeasureNoise(const Cloud& points, const ModelConfig& config, Contai
         const volume::SurfaceMap rough,
         volume::EstimateSurface(volume::MakeGrid(model.opening.polygon, cell_m), inside, {},
                                 config.heightmap.surface, stop));
-    model.noise_sigma_m = rough.noise_sigma_m;
+    model.noise_sigma_m = config.noise_sigma_m > 0.0 ? config.noise_sigma_m : rough.noise_sigma_m;
     model.smoothing_radius_m =
-        std::max(config.smoothing_radius_m, config.smoothing_sigmas * rough.noise_sigma_m);
+        std::max(config.smoothing_radius_m, config.smoothing_sigmas * model.noise_sigma_m);
     // Noise sigmas, plus half a voxel: the structure is kept as voxel centroids.
     model.structure_radius_m =
-        std::clamp(config.structure_sigmas * rough.noise_sigma_m + 0.5 * config.smoothing_voxel_m,
+        std::clamp(config.structure_sigmas * model.noise_sigma_m + 0.5 * config.smoothing_voxel_m,
                    config.min_structure_radius_m, config.max_structure_radius_m);
     return absl::OkStatus();
 }
@@ -152,6 +153,10 @@ absl::StatusOr<volume::EmptySurface> ModelEmptySurface(const ContainerModel& mod
                                                        const volume::Grid& grid,
                                                        const volume::HeightmapConfig& config,
                                                        const StopToken& stop) {
+    if (!model.mesh.triangles.empty()) {
+        SOILVOL_RETURN_IF_ERROR(stop.Check("empty surface of the mesh"));
+        return MeshEmptySurface(model.mesh, model.opening.polygon, grid);
+    }
     SOILVOL_ASSIGN_OR_RETURN(volume::EmptySurface empty,
                              volume::EstimateEmptySurface(grid, model.cavity, config, stop));
     ApplyWallPriors(model.walls, model.opening.polygon, grid, empty);
@@ -220,10 +225,72 @@ absl::Status AddCavity(const Cloud& points, const Eigen::Vector3d& sensor,
     return absl::OkStatus();
 }
 
+// The opening's side nearest `xy`: the polygon's edge index.
+int NearestSide(const Polygon2d& polygon, const Eigen::Vector2d& xy) {
+    const auto& v = polygon.Vertices();
+    int best = 0;
+    double best_d = 1e300;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+        const Eigen::Vector2d a = v[i], b = v[(i + 1) % v.size()];
+        const double t =
+            std::clamp((xy - a).dot(b - a) / std::max((b - a).squaredNorm(), 1e-12), 0.0, 1.0);
+        const double d = (a + t * (b - a) - xy).norm();
+        if (d < best_d) best_d = d, best = static_cast<int>(i);
+    }
+    return best;
+}
+
+// The struck capacity's 1-sigma: unseen cells' ranges summed linearly (a hidden wall is one
+// error), the prior walls' thickness over their height and length, the fits' variances
+// (windows counted once); and the sides the unseen parts lie along.
+void SetCapacitySigma(const volume::Grid& grid, const volume::EmptySurface& empty,
+                      ContainerModel& model) {
+    const Polygon2d& polygon = model.opening.polygon;
+    const std::size_t sides = polygon.Vertices().size();
+    std::vector<UnseenSide> per_side(sides);
+    const double window = static_cast<double>(empty.map.window_cells * empty.map.window_cells);
+    double fit_variance = 0.0, linear = 0.0;
+    for (std::size_t k = 0; k < grid.weight.size(); ++k) {
+        const double w = grid.weight[k];
+        if (w <= 0.0) continue;
+        if (std::isfinite(empty.map.variance[k]))
+            fit_variance += w * w * window * empty.map.variance[k];
+        const double s = empty.unobserved_sigma_m[k];
+        if (s <= 0.0) continue;
+        linear += w * s;
+        UnseenSide& side = per_side[static_cast<std::size_t>(NearestSide(polygon, grid.anchor[k]))];
+        side.area_m2 += w;
+        side.sigma_m3 += w * s;
+    }
+    for (const WallPrior& wall : model.walls) {
+        if (wall.profile.empty() || static_cast<std::size_t>(wall.edge) >= sides) continue;
+        const auto& v = polygon.Vertices();
+        const double length = (v[(static_cast<std::size_t>(wall.edge) + 1) % sides] -
+                               v[static_cast<std::size_t>(wall.edge)])
+                                  .norm();
+        const double term = wall.thickness_sigma_m * -wall.profile.back().x() * length;
+        linear += term;
+        per_side[static_cast<std::size_t>(wall.edge)].sigma_m3 += term;
+    }
+    model.struck_capacity_sigma_m3 = std::hypot(std::sqrt(fit_variance), linear);
+    model.unseen.clear();
+    for (std::size_t e = 0; e < sides; ++e) {
+        UnseenSide side = per_side[e];
+        if (side.area_m2 <= 0.0 && side.sigma_m3 <= 0.0) continue;
+        side.from_corner = model.opening.corner_of_vertex[e % 4];
+        side.to_corner = model.opening.corner_of_vertex[(e + 1) % 4];
+        model.unseen.push_back(side);
+    }
+    std::sort(model.unseen.begin(), model.unseen.end(),
+              [](const UnseenSide& a, const UnseenSide& b) { return a.sigma_m3 > b.sigma_m3; });
+}
+
+}  // namespace
+
 // Sec. 3.2: the empty surface from every empty scan; the struck capacity is the volume between
 // it and the opening.
-absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model,
-                           const StopToken& stop) {
+absl::Status UpdateCapacities(const ModelConfig& config, ContainerModel& model,
+                              const StopToken& stop) {
     model.cache = std::make_shared<ModelCache>();
     SOILVOL_RETURN_IF_ERROR(stop.Check("empty surface"));
     const volume::Grid grid = volume::MakeGrid(model.opening.polygon, ModelCell(model, config));
@@ -238,14 +305,13 @@ absl::Status FinishSurface(const ModelConfig& config, ContainerModel& model,
         lowest = std::min(lowest, empty.map.height[k]);
     }
     model.depth_m = -lowest;
+    SetCapacitySigma(grid, empty, model);
     model.heaped_capacity_sae_m3 =
         model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 1.0);
     model.heaped_capacity_iso_m3 =
         model.struck_capacity_m3 + HeapVolume(model.opening.polygon, 0.5);
     return absl::OkStatus();
 }
-
-}  // namespace
 
 absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
                                                    const ModelConfig& config,
@@ -268,7 +334,7 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
     const Eigen::Vector3d sensor =
         SensorInContainer(model.opening.T_scan_container, model.opening.polygon);
     SOILVOL_RETURN_IF_ERROR(AddCavity(points, sensor, config, model, stop));
-    SOILVOL_RETURN_IF_ERROR(FinishSurface(config, model, stop));
+    SOILVOL_RETURN_IF_ERROR(UpdateCapacities(config, model, stop));
     return model;
 }
 
@@ -279,7 +345,7 @@ absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
     const Cloud points = ToContainerFrame(pre.points, T_scan_container);
     SOILVOL_RETURN_IF_ERROR(AddCavity(
         points, SensorInContainer(T_scan_container, model.opening.polygon), config, model, stop));
-    return FinishSurface(config, model, stop);
+    return UpdateCapacities(config, model, stop);
 }
 
 }  // namespace soilvol::model

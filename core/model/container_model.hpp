@@ -35,11 +35,22 @@ struct ModelConfig {
     double max_structure_radius_m = 0.15;
     std::size_t min_inside_points = 30;
     std::size_t min_alignment_points = 30;
+    /// > 0: the sensor's range noise [m], taken instead of the empty scan's (a virtual scan of
+    /// a mesh has none).
+    double noise_sigma_m = 0.0;
     volume::HeightmapConfig heightmap;  ///< used for the empty surface and the capacities
     ThinShellConfig shell;              ///< the inner face of walls seen only from outside
 };
 
 class ModelCache;
+
+/// A part of the opening along one of its sides that no empty scan saw (the inside of a wall a
+/// view hid, and the floor in its shadow), with what it leaves the struck capacity unsure of.
+struct UnseenSide {
+    int from_corner = 0, to_corner = 1;  ///< the side, by the corners as marked (0-3)
+    double area_m2 = 0.0;                ///< of the opening, nearest this side, not seen
+    double sigma_m3 = 0.0;               ///< its share of the struck capacity's 1-sigma
+};
 
 /// The container model (paper Sec. 3.2), built once from a scan of the empty container.
 /// Clouds are in the container frame of `opening`.
@@ -48,20 +59,25 @@ struct ContainerModel {
     Cloud inside;     ///< empty points over the opening
     /// Per empty scan: its inside points clear of the structure, with ray weights and sensor.
     std::vector<WeightedCloud> cavity;
-    Cloud structure;                      ///< smoothed empty surface outside the opening's column
-    double structure_radius_m = 0.0;      ///< returns this near the structure are not contents
-    double column_top_m = 0.05;           ///< contents: over the opening, below this height
-    double smoothing_radius_m = 0.0;      ///< of the alignment set; each scan is smoothed alike
-    Cloud alignment_points;               ///< outside points used for ICP
-    Cloud alignment_normals;              ///< unit normals of alignment_points
-    std::vector<WallPrior> walls;         ///< inner faces inferred from outside (thin shell)
-    double depth_m = 0.0;                 ///< opening plane to the lowest empty-surface cell
+    Cloud structure;                  ///< smoothed empty surface outside the opening's column
+    double structure_radius_m = 0.0;  ///< returns this near the structure are not contents
+    double column_top_m = 0.05;       ///< contents: over the opening, below this height
+    double smoothing_radius_m = 0.0;  ///< of the alignment set; each scan is smoothed alike
+    Cloud alignment_points;           ///< outside points used for ICP
+    Cloud alignment_normals;          ///< unit normals of alignment_points
+    std::vector<WallPrior> walls;     ///< inner faces inferred from outside (thin shell)
+    TriangleMesh mesh;     ///< the CAD surface when registered from one (container frame)
+    double depth_m = 0.0;  ///< opening plane to the lowest empty-surface cell
     double struck_capacity_m3 = 0.0;      ///< empty surface to the opening plane
     double heaped_capacity_sae_m3 = 0.0;  ///< struck + 1:1 heap (SAE J296)
     double heaped_capacity_iso_m3 = 0.0;  ///< struck + 2:1 heap (ISO 7546)
-    double noise_sigma_m = 0.0;           ///< robust noise of the empty surface fit
-    double observed_share = 0.0;          ///< of the opening's area, seen by the empty scans
-    std::size_t scan_points = 0;          ///< after preprocessing
+    /// 1-sigma of struck_capacity_m3: the range of the empty surface no scan saw (summed over
+    /// the cells: one hidden wall is one error), the thin-shell walls' thickness, the fits.
+    double struck_capacity_sigma_m3 = 0.0;
+    std::vector<UnseenSide> unseen;  ///< sides with unseen parts, the largest 1-sigma first
+    double noise_sigma_m = 0.0;      ///< robust noise of the empty surface fit
+    double observed_share = 0.0;     ///< of the opening's area, seen by the empty scans
+    std::size_t scan_points = 0;     ///< after preprocessing
     std::size_t outside_points = 0;
     /// What estimates derive from the fields above and reuse (model_cache.hpp); set anew by
     /// every change through this header and by the codec; null: derived afresh on every call.
@@ -104,8 +120,14 @@ align::AlignResult AlignModel(const ContainerModel& model, const Cloud& scan, co
 /// structure, with their weights.
 WeightedCloud RemoveStructure(const ContainerModel& model, const WeightedCloud& points);
 
-/// The empty container's surface over `grid`: fitted to the empty scans' insides (cavity), raised
-/// to the walls the thin-shell prior infers.
+/// The empty surface, capacities, depth and observed share of `model` computed anew from its
+/// cavity, walls and mesh (after a change of any). DeadlineExceeded or Cancelled once `stop`
+/// asks for it.
+absl::Status UpdateCapacities(const ModelConfig& config, ContainerModel& model,
+                              const StopToken& stop = {});
+
+/// The empty container's surface over `grid`: the mesh's when the model has one; else fitted to
+/// the empty scans' insides (cavity), raised to the walls the thin-shell prior infers.
 absl::StatusOr<volume::EmptySurface> ModelEmptySurface(const ContainerModel& model,
                                                        const volume::Grid& grid,
                                                        const volume::HeightmapConfig& config,

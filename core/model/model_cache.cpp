@@ -91,7 +91,7 @@ absl::StatusOr<std::shared_ptr<const volume::EmptySurface>> ModelCache::EmptySur
     // Computed outside the lock: calls on other grids do not wait; two first calls on one grid
     // both compute it, and the second result is dropped.
     SOILVOL_ASSIGN_OR_RETURN(volume::EmptySurface computed,
-                             volume::EstimateEmptySurface(grid, model.cavity, config, stop));
+                             ModelEmptySurface(model, grid, config, stop));
     auto surface = std::make_shared<const volume::EmptySurface>(std::move(computed));
     const std::lock_guard<std::mutex> lock(mu_);
     for (const SurfaceEntry& e : surfaces_) {

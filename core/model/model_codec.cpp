@@ -146,12 +146,30 @@ std::string EncodePayload(const ContainerModel& model) {
     for (const WallPrior& wall : model.walls) {
         w.Put<int32_t>(wall.edge);
         w.Put<double>(wall.thickness_m);
+        w.Put<double>(wall.thickness_sigma_m);
         w.Put<uint64_t>(wall.support);
         w.Put<uint32_t>(static_cast<uint32_t>(wall.profile.size()));
         for (const Eigen::Vector2d& p : wall.profile) {
             w.Put<double>(p.x());
             w.Put<double>(p.y());
         }
+    }
+    for (const int c : model.opening.corner_of_vertex) w.Put<int32_t>(c);
+    w.Put<double>(model.struck_capacity_sigma_m3);
+    w.Put<uint32_t>(static_cast<uint32_t>(model.unseen.size()));
+    for (const UnseenSide& side : model.unseen) {
+        w.Put<int32_t>(side.from_corner);
+        w.Put<int32_t>(side.to_corner);
+        w.Put<double>(side.area_m2);
+        w.Put<double>(side.sigma_m3);
+    }
+    w.Put<uint64_t>(model.mesh.vertices.size());
+    for (const Eigen::Vector3d& v : model.mesh.vertices) {
+        for (int i = 0; i < 3; ++i) w.Put<double>(v[i]);
+    }
+    w.Put<uint64_t>(model.mesh.triangles.size());
+    for (const Eigen::Vector3i& t : model.mesh.triangles) {
+        for (int i = 0; i < 3; ++i) w.Put<int32_t>(t[i]);
     }
     for (const double value :
          {model.structure_radius_m, model.smoothing_radius_m, model.column_top_m,
@@ -206,6 +224,7 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload, uint32_t 
             static_cast<std::size_t>(wall.edge) >= model.opening.polygon.Vertices().size())
             r.Fail("wall edge is out of range");
         wall.thickness_m = r.GetFinite("wall thickness");
+        wall.thickness_sigma_m = r.GetFinite("wall thickness sigma");
         wall.support = r.Get<uint64_t>();
         const uint32_t points = r.Get<uint32_t>();
         if (!r.ok() || points > r.Remaining() / (2 * sizeof(double))) {
@@ -217,6 +236,45 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload, uint32_t 
             wall.profile.emplace_back(z, r.GetFinite("wall profile"));
         }
         model.walls.push_back(std::move(wall));
+    }
+    if (version >= 3) {
+        for (int& c : model.opening.corner_of_vertex) {
+            c = r.Get<int32_t>();
+            if (c < 0 || c > 3) r.Fail("opening corner index is out of range");
+        }
+        model.struck_capacity_sigma_m3 = r.GetFinite("struck capacity sigma");
+        const uint32_t unseen = r.Get<uint32_t>();
+        if (unseen > kMaxPolygonVertices) r.Fail("unseen side count is invalid");
+        for (uint32_t i = 0; r.ok() && i < unseen; ++i) {
+            UnseenSide side;
+            side.from_corner = r.Get<int32_t>();
+            side.to_corner = r.Get<int32_t>();
+            side.area_m2 = r.GetFinite("unseen area");
+            side.sigma_m3 = r.GetFinite("unseen sigma");
+            model.unseen.push_back(side);
+        }
+        const uint64_t mesh_vertices = r.Get<uint64_t>();
+        if (!r.ok() || mesh_vertices > r.Remaining() / (3 * sizeof(double))) {
+            r.Fail("mesh vertex count exceeds the payload");
+        }
+        for (uint64_t i = 0; r.ok() && i < mesh_vertices; ++i) {
+            Eigen::Vector3d v;
+            for (int a = 0; a < 3; ++a) v[a] = r.GetFinite("mesh vertex");
+            model.mesh.vertices.push_back(v);
+        }
+        const uint64_t triangles = r.Get<uint64_t>();
+        if (!r.ok() || triangles > r.Remaining() / (3 * sizeof(int32_t))) {
+            r.Fail("mesh triangle count exceeds the payload");
+        }
+        for (uint64_t i = 0; r.ok() && i < triangles; ++i) {
+            Eigen::Vector3i t;
+            for (int a = 0; a < 3; ++a) t[a] = r.Get<int32_t>();
+            if ((t.array() < 0).any() ||
+                (t.array() >= static_cast<int>(model.mesh.vertices.size())).any()) {
+                r.Fail("mesh triangle index is out of range");
+            }
+            model.mesh.triangles.push_back(t);
+        }
     }
     model.structure_radius_m = r.GetFinite("structure radius");
     model.smoothing_radius_m = r.GetFinite("smoothing radius");

@@ -183,6 +183,7 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners, const Cloud& empty_s
     opening.T_scan_container.linear() = R;
     opening.T_scan_container.translation() = centroid + R.leftCols<2>() * area_centroid;
     opening.polygon = Polygon2d(poly);
+    if (SignedArea(poly) < 0.0) opening.corner_of_vertex = {3, 2, 1, 0};
     opening.area_m2 = opening.polygon.Area();
     return opening;
 }

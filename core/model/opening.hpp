@@ -1,5 +1,7 @@
 #pragma once
 
+#include <array>
+
 #include "absl/status/statusor.h"
 #include "core/common/polygon.hpp"
 #include "core/common/types.hpp"
@@ -23,6 +25,9 @@ struct Opening {
     Pose T_scan_container = Pose::Identity();  ///< container frame in the scan frame
     Polygon2d polygon;                         ///< corners in the container frame (z = 0)
     double nonplanarity_m = 0.0;               ///< largest corner offset from the fitted plane
+    /// The marked corner (0-3, in the order given) each polygon vertex is: the polygon runs
+    /// counter-clockwise, so a clockwise marking is stored reversed.
+    std::array<int, 4> corner_of_vertex{0, 1, 2, 3};
     double area_m2 = 0.0;
 };
 

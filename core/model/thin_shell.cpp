@@ -49,8 +49,9 @@ int NearestEdge(const std::vector<Edge>& edges, const Eigen::Vector2d& xy, doubl
 }
 
 // Theil-Sen line d = a + b z (the median of the pairwise slopes, then of the intercepts): a
-// lip or flange's few depth bins do not move it. Its intercept at the opening plane.
-bool InterceptAtRim(const std::vector<Eigen::Vector2d>& zd, double* intercept) {
+// lip or flange's few depth bins do not move it. Its intercept at the opening plane, and that
+// intercept's 1-sigma from the scatter of the bins about the line.
+bool InterceptAtRim(const std::vector<Eigen::Vector2d>& zd, double* intercept, double* sigma) {
     std::vector<double> slopes;
     for (std::size_t i = 0; i < zd.size(); ++i) {
         for (std::size_t j = i + 1; j < zd.size(); ++j) {
@@ -62,7 +63,8 @@ bool InterceptAtRim(const std::vector<Eigen::Vector2d>& zd, double* intercept) {
     const double b = Median(std::move(slopes));
     std::vector<double> a;
     for (const Eigen::Vector2d& p : zd) a.push_back(p.y() - b * p.x());
-    *intercept = Median(std::move(a));
+    *intercept = Median(a);
+    *sigma = RobustSigma(a, *intercept) / std::sqrt(static_cast<double>(a.size()));
     return true;
 }
 
@@ -111,10 +113,11 @@ std::vector<WallPrior> InnerFaceFromOutside(const Cloud& outside, const Eigen::V
         // which stands out further).
         double intercept = 0.0;
         if (lean < config.min_lean_m || fit.size() < 4 || wall.support < config.min_points ||
-            !InterceptAtRim(fit, &intercept)) {
+            !InterceptAtRim(fit, &intercept, &wall.thickness_sigma_m)) {
             continue;
         }
         wall.thickness_m = -intercept;
+        wall.thickness_sigma_m = std::max(wall.thickness_sigma_m, config.min_thickness_sigma_m);
         if (wall.thickness_m < config.min_thickness_m || wall.thickness_m > config.max_thickness_m)
             continue;
         for (Eigen::Vector2d& p : wall.profile) p.y() += wall.thickness_m;

@@ -20,8 +20,9 @@ struct ThinShellConfig {
     double reach_m = 0.20;      ///< outer-face returns within this of an edge (outside)
     double min_thickness_m = 0.003;
     double max_thickness_m = 0.12;
-    std::size_t min_points = 20;  ///< an edge with fewer outer-face returns gets no prior
-    double bin_m = 0.025;         ///< the outer face: medians of bins this size (along, depth)
+    double min_thickness_sigma_m = 0.002;  ///< a measured thickness is never surer than this
+    std::size_t min_points = 20;           ///< an edge with fewer outer-face returns gets no prior
+    double bin_m = 0.025;  ///< the outer face: medians of bins this size (along, depth)
     std::size_t min_bin_points = 5;
     /// Inner-face points nearer the edge than this are left out: a vertical wall's inner face
     /// is the opening's edge itself, which the empty surface's bounds already hold.
@@ -34,6 +35,7 @@ struct ThinShellConfig {
 struct WallPrior {
     int edge = 0;
     double thickness_m = 0.0;
+    double thickness_sigma_m = 0.0;        ///< its 1-sigma, from the profile's scatter
     std::vector<Eigen::Vector2d> profile;  ///< (z, inward offset)
     std::size_t support = 0;               ///< outer-face returns it rests on
 };

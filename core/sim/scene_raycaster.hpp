@@ -6,7 +6,7 @@
 
 #include "core/sim/scene.hpp"
 #include "core/sim/soil_surface.hpp"
-#include "core/sim/triangle_bvh.hpp"
+#include "core/common/triangle_bvh.hpp"
 
 namespace soilvol::sim {
 

@@ -63,7 +63,7 @@ TEST(ThinShellTest, WallSeenFromInsideGetsNoPrior) {
 }
 
 TEST(ThinShellTest, PriorRaisesUnseenCellsByTheWallsShareOfThem) {
-    const std::vector<WallPrior> walls = {{0, 0.03, {{-0.1, 0.0125}, {-0.8, 0.1}}, 100}};
+    const std::vector<WallPrior> walls = {{0, 0.03, 0.002, {{-0.1, 0.0125}, {-0.8, 0.1}}, 100}};
     const volume::Grid grid = volume::MakeGrid(kOpening, 0.1);
     volume::EmptySurface empty;
     const auto n = static_cast<std::size_t>(grid.NumCells());
@@ -87,12 +87,12 @@ TEST(ThinShellTest, PriorRaisesUnseenCellsByTheWallsShareOfThem) {
 }
 
 TEST(ThinShellTest, MergeKeepsTheBetterSupportedWallPerEdge) {
-    std::vector<WallPrior> walls = {{0, 0.03, {}, 50}};
-    MergeWalls({{0, 0.04, {}, 80}, {2, 0.02, {}, 10}}, walls);
+    std::vector<WallPrior> walls = {{0, 0.03, 0.002, {}, 50}};
+    MergeWalls({{0, 0.04, 0.002, {}, 80}, {2, 0.02, 0.002, {}, 10}}, walls);
     ASSERT_EQ(walls.size(), 2u);
     EXPECT_DOUBLE_EQ(walls[0].thickness_m, 0.04);
     EXPECT_EQ(walls[1].edge, 2);
-    MergeWalls({{0, 0.05, {}, 20}}, walls);
+    MergeWalls({{0, 0.05, 0.002, {}, 20}}, walls);
     EXPECT_DOUBLE_EQ(walls[0].thickness_m, 0.04);
 }
 

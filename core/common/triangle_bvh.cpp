@@ -1,10 +1,10 @@
-#include "core/sim/triangle_bvh.hpp"
+#include "core/common/triangle_bvh.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace soilvol::sim {
+namespace soilvol {
 
 namespace {
 
@@ -141,4 +141,4 @@ int TriangleBvh::FirstHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& 
     return hit;
 }
 
-}  // namespace soilvol::sim
+}  // namespace soilvol

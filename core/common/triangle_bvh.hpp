@@ -5,7 +5,7 @@
 #include <optional>
 #include <vector>
 
-namespace soilvol::sim {
+namespace soilvol {
 
 /// First hit of a ray with a triangle: distance [m] and the triangle's unit normal (either side).
 struct TriangleHit {
@@ -49,4 +49,4 @@ class TriangleBvh {
     std::vector<Node> nodes_;
 };
 
-}  // namespace soilvol::sim
+}  // namespace soilvol
