@@ -114,6 +114,12 @@ class DemoRun {
     bool Register() {
         const std::optional<DemoScan> empty = Simulate(0.0, 0, "empty");
         if (!empty) return false;
+        if (!options_.save_dir.empty() && !options_.stereo) {
+            const absl::Status saved =
+                SaveDemoMesh(options_.save_dir, MakeDemoMesh(setup_), empty->container_pose,
+                             setup_.view.range_noise_sigma_m);
+            if (!saved.ok()) std::cerr << "warning: " << saved.message() << "\n";
+        }
         v1::RegisterContainerRequest request;
         request.set_container_id(id_);
         request.set_overwrite(true);
@@ -129,6 +135,9 @@ class DemoRun {
                 id_, c.struck_capacity_m3() * kLitre, empty->struck_capacity_m3 * kLitre,
                 c.heaped_capacity_m3() * kLitre, empty->heaped_capacity_m3 * kLitre,
                 c.scan_points(), MillisecondsSince(start));
+            for (const std::string& warning : c.warnings()) {
+                std::cout << "warning: " << warning << "\n";
+            }
         }
         return true;
     }
@@ -201,7 +210,8 @@ void AddDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code) 
         ->capture_default_str();
     command->add_flag("--keep", options->keep, "keep the container and calibration afterwards");
     command->add_option("--save-dir", options->save_dir,
-                        "also write the simulated scans, corners and rig parameters here");
+                        "also write the simulated scans, corners, poses, the container's mesh "
+                        "and rig parameters here");
     command->callback([options, kinds, &global, exit_code] {
         options->kind = kinds.at(options->container);
         *exit_code = DemoRun(*options, global).Run();

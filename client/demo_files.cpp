@@ -36,16 +36,41 @@ std::string CornersArgument(const v1::Opening& opening) {
     return absl::StrJoin(points, ";") + "\n";
 }
 
+/// "x,y,z;qw,qx,qy,qz", as --container-pose takes it.
+std::string PoseArgument(const v1::Pose& pose) {
+    const v1::Point3& p = pose.position_m();
+    const v1::Quaternion& q = pose.orientation();
+    return absl::StrFormat("%.6f,%.6f,%.6f;%.9f,%.9f,%.9f,%.9f\n", p.x(), p.y(), p.z(), q.w(),
+                           q.x(), q.y(), q.z());
+}
+
 }  // namespace
 
 absl::Status SaveDemoScan(const std::string& dir, const std::string& stem, const DemoScan& scan) {
     absl::Status status = WriteFile(dir, stem + "-corners.txt", CornersArgument(scan.opening));
     if (scan.scan.has_cloud()) {
         status.Update(WriteFile(dir, stem + ".ply", scan.scan.cloud().data()));
+        status.Update(WriteFile(dir, stem + "-pose.txt", PoseArgument(scan.container_pose)));
     } else {
         status.Update(WriteFile(dir, stem + "-left.png", scan.scan.stereo().left()));
         status.Update(WriteFile(dir, stem + "-right.png", scan.scan.stereo().right()));
     }
+    return status;
+}
+
+absl::Status SaveDemoMesh(const std::string& dir, const DemoMesh& mesh, const v1::Pose& pose,
+                          double range_noise_m) {
+    absl::Status status = WriteFile(dir, "mesh.stl", mesh.stl);
+    status.Update(WriteFile(dir, "mesh-corners.txt", CornersArgument(mesh.opening)));
+    v1::MeshScan placement;
+    *placement.mutable_corners() = mesh.opening.corners();
+    *placement.mutable_container_pose() = pose;
+    placement.set_range_noise_m(range_noise_m);
+    std::string json;
+    if (!google::protobuf::util::MessageToJsonString(placement, &json).ok()) {
+        return absl::InternalError("cannot print the mesh's placement as JSON");
+    }
+    status.Update(WriteFile(dir, "mesh.json", json + "\n"));
     return status;
 }
 

@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_format.h"
 #include "core/io/cloud_codec.hpp"
+#include "core/io/mesh_codec.hpp"
 #include "core/sim/stereo_renderer.hpp"
 #include "core/sim/tof_sensor.hpp"
 #include "core/stereo/image_codec.hpp"
@@ -32,16 +33,21 @@ absl::StatusOr<DemoScan> StereoScan(const sim::SceneSpec& spec, const DemoSetup&
     return out;
 }
 
-DemoScan CloudScan(const sim::SceneSpec& spec) {
-    const sim::Scene scene = sim::SimulateScene(spec);
-    DemoScan out;
-    out.scan.mutable_cloud()->set_data(io::EncodePly(scene.points));
-    for (const Eigen::Vector3d& c : scene.opening_corners_scan) {
-        v1::Point3* corner = out.opening.add_corners();
+void AddCorners(const Corners& corners, v1::Opening* opening) {
+    for (const Eigen::Vector3d& c : corners) {
+        v1::Point3* corner = opening->add_corners();
         corner->set_x(c.x());
         corner->set_y(c.y());
         corner->set_z(c.z());
     }
+}
+
+DemoScan CloudScan(const sim::SceneSpec& spec) {
+    const sim::Scene scene = sim::SimulateScene(spec);
+    DemoScan out;
+    out.scan.mutable_cloud()->set_data(io::EncodePly(scene.points));
+    AddCorners(scene.opening_corners_scan, &out.opening);
+    server::ToProto(scene.T_scan_container, &out.container_pose);
     out.true_volume_m3 = scene.true_volume_m3;
     out.struck_capacity_m3 = scene.struck_capacity_m3;
     out.heaped_capacity_m3 = scene.heaped_capacity_sae_m3;
@@ -84,6 +90,17 @@ v1::StereoParameters DemoRigParameters(const DemoSetup& setup) {
     const StereoParameters exact = sim::RigParameters(setup.rig);
     v1::StereoParameters out;
     server::ToProto(exact, &out);
+    return out;
+}
+
+DemoMesh MakeDemoMesh(const DemoSetup& setup) {
+    const sim::ContainerGeometry geometry = sim::MakeContainer(setup.kind);
+    io::DecodedMesh mesh;
+    mesh.vertices = geometry.vertices;
+    mesh.triangles = geometry.triangles;
+    DemoMesh out;
+    out.stl = io::EncodeStl(mesh);
+    AddCorners(geometry.opening_corners, &out.opening);
     return out;
 }
 

@@ -37,10 +37,21 @@ v1::StereoParameters DemoRigParameters(const DemoSetup& setup);
 struct DemoScan {
     v1::Scan scan;
     v1::Opening opening;  ///< true corners: 3D in the scan frame, or left-image pixels (stereo)
+    /// Cloud scans: the container's true pose in the scan frame (the frame of its mesh,
+    /// DemoMesh, in the sensor's).
+    v1::Pose container_pose;
     double true_volume_m3 = 0.0;
     double struck_capacity_m3 = 0.0;
     double heaped_capacity_m3 = 0.0;  ///< SAE J296
 };
+
+/// The simulated container's surface (the mesh the scans are cast from) in its own frame, with
+/// its opening corners in that frame.
+struct DemoMesh {
+    std::string stl;  ///< binary STL [m]
+    v1::Opening opening;
+};
+DemoMesh MakeDemoMesh(const DemoSetup& setup);
 
 /// Scan number `scan_index` (0: the empty registration scan) with soil filled to `fill_share`
 /// of the depth; stereo scans name `calibration_id`. Internal when an image cannot be encoded.

@@ -1,5 +1,6 @@
 #include "client/input_files.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -114,6 +115,33 @@ absl::StatusOr<std::vector<std::vector<double>>> ParseTuples(const std::string& 
         return absl::InvalidArgumentError(absl::StrCat(expected, "; got ", tuples.size()));
     }
     return tuples;
+}
+
+absl::StatusOr<PoseValues> ParsePose(const std::string& text, const std::string& flag) {
+    const std::vector<std::string> parts = absl::StrSplit(text, ';', absl::SkipWhitespace());
+    if (parts.empty() || parts.size() > 2) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(flag,
+                         " needs \"x,y,z;qw,qx,qy,qz\" (position [m]; unit quaternion, w first) or "
+                         "\"x,y,z\"; got '",
+                         text, "'"));
+    }
+    PoseValues pose;
+    auto position = ParseTuples(parts[0], 3, 1, absl::StrCat(flag, " (position)"));
+    if (!position.ok()) return position.status();
+    std::copy_n((*position)[0].begin(), 3, pose.position_m.begin());
+    if (parts.size() == 2) {
+        auto quaternion = ParseTuples(parts[1], 4, 1, absl::StrCat(flag, " (quaternion)"));
+        if (!quaternion.ok()) return quaternion.status();
+        const std::vector<double>& q = (*quaternion)[0];
+        const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        if (std::abs(norm - 1.0) > 1e-3) {
+            return absl::InvalidArgumentError(
+                absl::StrCat(flag, ": the quaternion (w first) must have norm 1, got ", norm));
+        }
+        std::copy_n(q.begin(), 4, pose.quaternion.begin());
+    }
+    return pose;
 }
 
 int ReportUsageError(const absl::Status& status) {

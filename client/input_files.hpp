@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,16 @@ absl::StatusOr<std::vector<ImagePairFiles>> FindChessboardPairs(const std::strin
 /// InvalidArgument naming `flag` unless there are exactly `count` finite tuples.
 absl::StatusOr<std::vector<std::vector<double>>> ParseTuples(const std::string& text, int dims,
                                                              int count, const std::string& flag);
+
+/// A rigid pose: position and unit quaternion (w first), as "x,y,z;qw,qx,qy,qz" [m], or
+/// "x,y,z" for the identity orientation (the order Container.container_pose prints in).
+struct PoseValues {
+    std::array<double, 3> position_m{};
+    std::array<double, 4> quaternion{1.0, 0.0, 0.0, 0.0};
+};
+/// InvalidArgument naming `flag` for anything else: other counts, non-finite numbers, a
+/// quaternion whose norm is not 1 within 1e-3.
+absl::StatusOr<PoseValues> ParsePose(const std::string& text, const std::string& flag);
 
 /// Prints `error: <message>` to stderr and returns kExitUsage.
 int ReportUsageError(const absl::Status& status);

@@ -41,6 +41,24 @@ void PrintUnreadable(const google::protobuf::RepeatedPtrField<v1::UnreadableEntr
 
 std::string Percent(double ratio) { return Fixed(100.0 * ratio, 1); }
 
+/// "corners 1-2: 0.20 m^2, 16.1 L; ...", corners 1-4 as marked (as the warnings name them).
+std::string UnseenSides(const v1::Container& c) {
+    std::vector<std::string> sides;
+    for (const v1::UnseenSide& side : c.unseen_sides()) {
+        sides.push_back(absl::StrFormat("corners %d-%d: %.2f m^2, %.1f L", side.from_corner() + 1,
+                                        side.to_corner() + 1, side.area_m2(),
+                                        1000.0 * side.uncertainty_m3()));
+    }
+    return sides.empty() ? "none" : absl::StrJoin(sides, "; ");
+}
+
+/// One `warning:` line per warning of `c`, led by its id when `with_id`.
+void PrintWarnings(const v1::Container& c, bool with_id, std::ostream& out) {
+    for (const std::string& warning : c.warnings()) {
+        out << "warning: " << (with_id ? c.container_id() + ": " : "") << warning << "\n";
+    }
+}
+
 /// "at (x, y, z) m, quaternion (w, x, y, z)".
 std::string PoseText(const v1::Pose& pose) {
     const v1::Point3& p = pose.position_m();
@@ -95,6 +113,8 @@ void PrintContainer(const v1::Container& c, bool json, std::ostream& out) {
     std::string from = Kind(c.registered_from());
     if (!c.calibration_id().empty())
         absl::StrAppend(&from, " (calibration ", c.calibration_id(), ")");
+    if (c.has_mesh() && c.registered_from() != v1::SCAN_KIND_MESH)
+        absl::StrAppend(&from, " + mesh");
     std::string labels;
     for (const auto& [key, value] : c.labels()) {
         absl::StrAppend(&labels, labels.empty() ? "" : ", ", key, "=", value);
@@ -111,6 +131,8 @@ void PrintContainer(const v1::Container& c, bool json, std::ostream& out) {
                  {"load target", targets},
                  {"registered from", from},
                  {"struck capacity [m^3]", Fixed(c.struck_capacity_m3(), 4)},
+                 {"struck 1-sigma [L]", Fixed(1000.0 * c.struck_capacity_uncertainty_m3(), 1)},
+                 {"unseen sides", UnseenSides(c)},
                  {"heaped SAE 1:1 [m^3]", Fixed(c.heaped_capacity_m3(), 4)},
                  {"heaped ISO 2:1 [m^3]", Fixed(c.heaped_capacity_iso_m3(), 4)},
                  {"opening area [m^2]", Fixed(c.opening_area_m2(), 4)},
@@ -122,6 +144,7 @@ void PrintContainer(const v1::Container& c, bool json, std::ostream& out) {
                  {"max range [m]", c.has_max_range_m() ? Fixed(c.max_range_m(), 2) : "none"},
                  {"created", Time(c.create_time())}},
                 out);
+    PrintWarnings(c, false, out);
 }
 
 void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream& out) {
@@ -197,16 +220,18 @@ void PrintCalibrationList(const v1::ListCalibrationsResponse& list, bool json, s
 
 void PrintContainerList(const v1::ListContainersResponse& list, bool json, std::ostream& out) {
     if (json) return PrintJson(list, out);
-    Table table({"id", "from", "struck [m^3]", "heaped [m^3]", "area [m^2]", "depth [m]", "points",
-                 "calibration", "created"});
+    Table table({"id", "from", "struck [m^3]", "1-sigma [L]", "heaped [m^3]", "area [m^2]",
+                 "depth [m]", "points", "calibration", "warnings", "created"});
     for (const v1::Container& c : list.containers()) {
         table.AddRow({c.container_id(), Kind(c.registered_from()), Fixed(c.struck_capacity_m3(), 4),
+                      Fixed(1000.0 * c.struck_capacity_uncertainty_m3(), 1),
                       Fixed(c.heaped_capacity_m3(), 4), Fixed(c.opening_area_m2(), 3),
                       Fixed(c.depth_m(), 3), absl::StrCat(c.scan_points()),
                       c.calibration_id().empty() ? "-" : c.calibration_id(),
-                      Time(c.create_time())});
+                      absl::StrCat(c.warnings_size()), Time(c.create_time())});
     }
     table.Print(out);
+    for (const v1::Container& c : list.containers()) PrintWarnings(c, true, out);
     PrintUnreadable(list.unreadable(), out);
 }
 

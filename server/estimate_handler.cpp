@@ -8,8 +8,17 @@
 namespace soilvol::server {
 namespace {
 
+/// What a container's estimates take: a mesh alone places the container before a cloud sensor.
 pipeline::ScanKind KindOf(v1::ScanKind kind) {
-    return kind == v1::SCAN_KIND_STEREO ? pipeline::ScanKind::kStereo : pipeline::ScanKind::kCloud;
+    switch (kind) {
+        case v1::SCAN_KIND_STEREO:
+            return pipeline::ScanKind::kStereo;
+        case v1::SCAN_KIND_UNSPECIFIED:
+        case v1::SCAN_KIND_CLOUD:
+        case v1::SCAN_KIND_MESH:
+        default:
+            return pipeline::ScanKind::kCloud;
+    }
 }
 
 /// The request's options for core, which checks them against the container.
@@ -110,6 +119,8 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
         RunEstimate(*container, scan, config, response->mutable_timings(), record.stop));
 
     ToProto(estimate, response);
+    response->mutable_coverage()->set_capacity_uncertainty_m3(
+        container->model.struck_capacity_sigma_m3);
     // The record keeps the heightmap even when the answer omits it.
     if (Records(request) || !request.omit_heightmap()) {
         ToProto(estimate.volume, response->mutable_heightmap());

@@ -1,5 +1,7 @@
 #include "server/http_routes.hpp"
 
+#include <array>
+#include <cstring>
 #include <set>
 
 #include "absl/strings/ascii.h"
@@ -213,37 +215,59 @@ absl::Status SetField(google::protobuf::Message* message, const std::string& nam
     return absl::OkStatus();
 }
 
-/// The scan of a request that carries one (RegisterContainer, EstimateVolume); null otherwise.
-google::protobuf::Message* ScanOf(google::protobuf::Message* message) {
-    const google::protobuf::FieldDescriptor* field =
-        message->GetDescriptor()->FindFieldByName("scan");
-    if (field == nullptr ||
-        field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) {
-        return nullptr;
+/// A file a binary or multipart body carries, by its name: the bytes field it fills.
+struct FileField {
+    const char* name;  ///< the multipart part's name, or file=<name> of a binary body
+    const char* path;  ///< singular message fields down to a bytes field
+};
+constexpr std::array<FileField, 4> kFiles = {{{"cloud", "scan.cloud.data"},
+                                              {"left", "scan.stereo.left"},
+                                              {"right", "scan.stereo.right"},
+                                              {"mesh", "mesh.data"}}};
+
+const FileField* FindFile(std::string_view name) {
+    for (const FileField& file : kFiles) {
+        if (std::string_view(file.name) == name) return &file;
     }
-    return message->GetReflection()->MutableMessage(message, field);
+    return nullptr;
 }
 
-/// `scan.<source>.<name>` of a Scan message: the bytes field a file fills.
-absl::Status SetScanBytes(google::protobuf::Message* scan, const char* source, const char* name,
+/// A file waiting to be bound: files are set after every other field, so that a field given
+/// as JSON (`mesh={...}`) cannot clear one.
+struct PendingFile {
+    const FileField* file;
+    std::string bytes;
+};
+
+/// Whether the request has the message field a file lies in (RegisterContainer has a scan and
+/// a mesh, EstimateVolume a scan).
+bool TakesFile(const google::protobuf::Message& message, const FileField& file) {
+    const std::string top(file.path, std::strchr(file.path, '.'));
+    const google::protobuf::FieldDescriptor* field = message.GetDescriptor()->FindFieldByName(top);
+    return field != nullptr && !field->is_repeated() &&
+           field->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE;
+}
+
+/// Sets the bytes field `file` names (TakesFile must hold); given twice is InvalidArgument.
+absl::Status SetFileBytes(google::protobuf::Message* message, const FileField& file,
                           std::string bytes) {
-    const google::protobuf::FieldDescriptor* source_field =
-        scan->GetDescriptor()->FindFieldByName(source);
-    google::protobuf::Message* inner = scan->GetReflection()->MutableMessage(scan, source_field);
-    const google::protobuf::FieldDescriptor* field = inner->GetDescriptor()->FindFieldByName(name);
-    if (!inner->GetReflection()->GetString(*inner, field).empty()) {
-        return absl::InvalidArgumentError(absl::StrCat("scan.", source, ".", name,
-                                                       ": given twice (in the request and as a "
-                                                       "file)"));
+    const google::protobuf::FieldDescriptor* field = nullptr;
+    for (absl::string_view step : absl::StrSplit(file.path, '.')) {
+        if (field != nullptr) message = message->GetReflection()->MutableMessage(message, field);
+        field = message->GetDescriptor()->FindFieldByName(std::string(step));
     }
-    inner->GetReflection()->SetString(inner, field, std::move(bytes));
+    if (!message->GetReflection()->GetString(*message, field).empty()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(file.path, ": given twice (in the request and as a file)"));
+    }
+    message->GetReflection()->SetString(message, field, std::move(bytes));
     return absl::OkStatus();
 }
 
-/// multipart/form-data: a `request` part (the request as JSON), files `cloud`, `left` and
-/// `right` for the scan, any other part naming a field as a query parameter would.
+/// multipart/form-data: a `request` part (the request as JSON), files `cloud`, `left`, `right`
+/// and `mesh` (into `files`), any other part naming a field as a query parameter would.
 absl::Status BindMultipart(std::string_view content_type, const std::string& body,
-                           google::protobuf::Message* message) {
+                           google::protobuf::Message* message, std::vector<PendingFile>* files) {
     absl::StatusOr<std::string> boundary = MultipartBoundary(content_type);
     if (!boundary.ok()) return boundary.status();
     absl::StatusOr<std::vector<MultipartPart>> parts = ParseMultipart(body, *boundary);
@@ -261,28 +285,53 @@ absl::Status BindMultipart(std::string_view content_type, const std::string& bod
                 ParseJsonInto(part.data, message, "multipart body: part 'request'"));
         }
     }
-    google::protobuf::Message* scan = nullptr;
     for (const MultipartPart& part : *parts) {
         if (part.name == "request") continue;
-        const bool file = part.name == "cloud" || part.name == "left" || part.name == "right";
-        if (!file) {
+        const FileField* file = FindFile(part.name);
+        if (file == nullptr) {
             SOILVOL_RETURN_IF_ERROR(
                 SetField(message, std::string(part.name), std::string(part.data)));
             continue;
         }
-        if (scan == nullptr) scan = ScanOf(message);
-        if (scan == nullptr) {
+        if (!TakesFile(*message, *file)) {
+            const std::string top(file->path, std::strchr(file->path, '.'));
             return absl::InvalidArgumentError(absl::StrCat(
-                "multipart body: part '", AbslView(part.name), "': this route takes no scan"));
+                "multipart body: part '", AbslView(part.name), "': this route takes no ", top));
         }
-        if (part.name == "cloud") {
-            SOILVOL_RETURN_IF_ERROR(SetScanBytes(scan, "cloud", "data", std::string(part.data)));
-        } else {
-            SOILVOL_RETURN_IF_ERROR(SetScanBytes(scan, "stereo", std::string(part.name).c_str(),
-                                                 std::string(part.data)));
-        }
+        files->push_back({file, std::string(part.data)});
     }
     return absl::OkStatus();
+}
+
+/// The file a binary body is: the one the query's `file` parameter names (removed from
+/// `parameters`), else the cloud.
+absl::StatusOr<const FileField*> BinaryBodyFile(
+    const google::protobuf::Message& message,
+    std::vector<std::pair<std::string, std::string>>& parameters) {
+    const FileField* file = &kFiles[0];
+    bool named = false;
+    for (auto it = parameters.begin(); it != parameters.end();) {
+        if (it->first != "file") {
+            ++it;
+            continue;
+        }
+        if (named) return absl::InvalidArgumentError("file: is given twice");
+        file = FindFile(it->second);
+        if (file == nullptr || file == &kFiles[1] || file == &kFiles[2]) {
+            return absl::InvalidArgumentError(absl::StrCat(
+                "file: '", it->second,
+                "' is not cloud or mesh (a stereo pair is two files: send multipart/form-data)"));
+        }
+        named = true;
+        it = parameters.erase(it);
+    }
+    if (!TakesFile(message, *file)) {
+        return absl::InvalidArgumentError(
+            named ? absl::StrCat("file: this route takes no ", file->name)
+                  : std::string("Content-Type: application/octet-stream is for routes that take "
+                                "a scan"));
+    }
+    return file;
 }
 
 }  // namespace
@@ -423,6 +472,9 @@ absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std
                          std::string_view query, std::string_view content_type, std::string& body,
                          google::protobuf::Message* message) {
     const BodyKind kind = route.body == "*" ? BodyKindOf(content_type) : BodyKind::kJson;
+    absl::StatusOr<std::vector<std::pair<std::string, std::string>>> parameters = ParseQuery(query);
+    if (!parameters.ok()) return parameters.status();
+    std::vector<PendingFile> files;
     switch (kind) {
         case BodyKind::kJson:
             if (route.body == "*" && !body.empty()) {
@@ -432,17 +484,13 @@ absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std
             }
             break;
         case BodyKind::kBinary: {
-            google::protobuf::Message* scan = ScanOf(message);
-            if (scan == nullptr) {
-                return absl::InvalidArgumentError(
-                    "Content-Type: application/octet-stream is for routes that take a scan");
-            }
+            SOILVOL_ASSIGN_OR_RETURN(const FileField* file, BinaryBodyFile(*message, *parameters));
             // The file's bytes move into the message: no copy of a large scan.
-            SOILVOL_RETURN_IF_ERROR(SetScanBytes(scan, "cloud", "data", std::move(body)));
+            files.push_back({file, std::move(body)});
             break;
         }
         case BodyKind::kMultipart:
-            SOILVOL_RETURN_IF_ERROR(BindMultipart(content_type, body, message));
+            SOILVOL_RETURN_IF_ERROR(BindMultipart(content_type, body, message, &files));
             break;
         case BodyKind::kOther:
             return absl::InvalidArgumentError(
@@ -452,14 +500,15 @@ absl::Status BindRequest(const HttpRoute& route, const std::map<std::string, std
     for (const auto& [field, value] : path) {
         if (absl::Status status = SetField(message, field, value); !status.ok()) return status;
     }
-    absl::StatusOr<std::vector<std::pair<std::string, std::string>>> parameters = ParseQuery(query);
-    if (!parameters.ok()) return parameters.status();
     for (const auto& [name, value] : *parameters) {
         // A JSON body carries every field itself, as grpc-gateway has it for body "*".
         if (route.body == "*" && kind == BodyKind::kJson) {
             return absl::InvalidArgumentError(absl::StrCat("unknown parameter '", name, "'"));
         }
         if (absl::Status status = SetField(message, name, value); !status.ok()) return status;
+    }
+    for (PendingFile& file : files) {
+        SOILVOL_RETURN_IF_ERROR(SetFileBytes(message, *file.file, std::move(file.bytes)));
     }
     return absl::OkStatus();
 }

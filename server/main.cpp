@@ -57,6 +57,11 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
     app.add_option("--max-message-mb", o.max_message_mb, "Largest request [MiB]")
         ->envname("SOILVOL_MAX_MESSAGE_MB")
         ->capture_default_str();
+    app.add_option("--capacity-warning-share", o.capacity_warning_share,
+                   "Containers whose struck capacity's 1-sigma exceeds this share of it carry a "
+                   "warning, (0, 1]")
+        ->envname("SOILVOL_CAPACITY_WARNING_SHARE")
+        ->capture_default_str();
     app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical, off")
         ->envname("SOILVOL_LOG_LEVEL")
         ->capture_default_str();

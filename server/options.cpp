@@ -57,6 +57,9 @@ absl::Status ValidateOptions(const ServerOptions& o) {
     if (o.max_message_mb < 1 || o.max_message_mb > 1024) {
         return Invalid("max-message-mb", "must be in [1, 1024]");
     }
+    if (!(o.capacity_warning_share > 0.0 && o.capacity_warning_share <= 1.0)) {
+        return Invalid("capacity-warning-share", "must be in (0, 1]");
+    }
     if (std::find(kLogLevels.begin(), kLogLevels.end(), o.log_level) == kLogLevels.end()) {
         return Invalid("log-level", absl::StrCat("'", o.log_level,
                                                  "' is not one of trace, debug, info, warn, "

@@ -30,6 +30,9 @@ struct ServerOptions {
     int http_max_connections = 512;  ///< REST connections at once; more get 503 and close
     double http_header_timeout_s = 10.0;  ///< from a request's first byte to its header's end
     double http_idle_timeout_s = 60.0;    ///< keep-alive wait for the next request
+    /// A container whose struck capacity's 1-sigma exceeds this share of it carries a warning
+    /// (Container.warnings), (0, 1].
+    double capacity_warning_share = 0.01;
 
     // Security: TLS (both transports), credentials, what is open.
     std::string tls_cert;          ///< PEM certificate chain; set with tls_key: TLS on both ports

@@ -194,6 +194,16 @@ void ToProto(const model::ContainerModel& model, v1::Container* proto) {
     proto->set_observed_share(model.observed_share);
     proto->set_empty_scans(static_cast<int32_t>(model.cavity.size()));
     ToProto(model.opening.T_scan_container, proto->mutable_container_pose());
+    proto->set_struck_capacity_uncertainty_m3(model.struck_capacity_sigma_m3);
+    proto->clear_unseen_sides();
+    for (const model::UnseenSide& side : model.unseen) {
+        v1::UnseenSide* out = proto->add_unseen_sides();
+        out->set_from_corner(side.from_corner);
+        out->set_to_corner(side.to_corner);
+        out->set_area_m2(side.area_m2);
+        out->set_uncertainty_m3(side.sigma_m3);
+    }
+    proto->set_has_mesh(!model.mesh.triangles.empty());
 }
 
 absl::StatusOr<Pose> ToPose(const v1::Pose& proto, const std::string& field) {

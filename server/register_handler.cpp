@@ -9,6 +9,7 @@
 #include "core/pipeline/registration.hpp"
 #include "google/protobuf/util/field_mask_util.h"
 #include "google/protobuf/util/time_util.h"
+#include "server/mesh_request.hpp"
 #include "server/proto_convert.hpp"
 #include "server/resource_rules.hpp"
 #include "server/soilvol_handlers.hpp"
@@ -54,6 +55,15 @@ absl::Status CheckSettings(const v1::Container& container, const std::string& pr
     return absl::OkStatus();
 }
 
+/// The request's settings into `container`, checked.
+absl::Status ApplySettings(const v1::RegisterContainerRequest& request, v1::Container* container) {
+    container->set_display_name(request.display_name());
+    *container->mutable_labels() = request.labels();
+    if (request.has_material()) *container->mutable_material() = request.material();
+    if (request.has_load_targets()) *container->mutable_load_targets() = request.load_targets();
+    return CheckSettings(*container, "");
+}
+
 constexpr std::array<const char*, 4> kSettings = {"display_name", "labels", "material",
                                                   "load_targets"};
 
@@ -94,7 +104,56 @@ absl::StatusOr<google::protobuf::FieldMask> UpdateMaskOf(
     return mask;
 }
 
+/// Which of scan, opening and mesh a registration has: a scan with its opening, a mesh, or a
+/// point-cloud scan with its opening and a mesh.
+absl::Status CheckSources(const v1::RegisterContainerRequest& request) {
+    if (!request.has_mesh() && !request.has_scan()) {
+        return absl::InvalidArgumentError(
+            "scan: is required without a mesh: give a scan of the empty container (cloud or "
+            "stereo) with its opening, the container's mesh, or both");
+    }
+    if (request.has_scan()) {
+        if (!request.has_opening()) {
+            return absl::InvalidArgumentError("opening: is required (corners or pixel_corners)");
+        }
+        if (request.has_mesh() && request.scan().has_stereo()) {
+            return absl::InvalidArgumentError(
+                "mesh: goes with a point-cloud scan or alone; stereo registrations take none");
+        }
+        return absl::OkStatus();
+    }
+    if (request.has_opening()) {
+        return absl::InvalidArgumentError(
+            "opening: only with a scan; a mesh alone has its corners in mesh.corners");
+    }
+    if (request.additional_scans_size() > 0) {
+        return absl::InvalidArgumentError(
+            "additional_scans: need a first empty scan (scan) to be aligned to");
+    }
+    return absl::OkStatus();
+}
+
+/// The figures of a container that its warnings come from, as core keeps them.
+model::ContainerModel CapacityFiguresOf(const v1::Container& container) {
+    model::ContainerModel figures;
+    figures.struck_capacity_m3 = container.struck_capacity_m3();
+    figures.struck_capacity_sigma_m3 = container.struck_capacity_uncertainty_m3();
+    for (const v1::UnseenSide& side : container.unseen_sides()) {
+        figures.unseen.push_back(
+            {side.from_corner(), side.to_corner(), side.area_m2(), side.uncertainty_m3()});
+    }
+    return figures;
+}
+
 }  // namespace
+
+void SoilVolumeHandlers::AddWarnings(v1::Container* container) const {
+    container->clear_warnings();
+    for (std::string& warning : pipeline::CapacityWarnings(CapacityFiguresOf(*container),
+                                                           options_.capacity_warning_share)) {
+        container->add_warnings(std::move(warning));
+    }
+}
 
 absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmptyScans(
     const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
@@ -127,8 +186,10 @@ absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmpty
 }
 
 absl::StatusOr<model::ContainerModel> SoilVolumeHandlers::BuildModel(
-    const v1::RegisterContainerRequest& request, const Scan& scan, const model::ModelConfig& config,
+    const v1::RegisterContainerRequest& request, const model::ModelConfig& config,
     v1::Container* response, CallRecord& record) const {
+    if (request.has_mesh()) return BuildMeshModel(request, config, response, record);
+    SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), "", record));
     if (scan.calibration != nullptr && request.additional_scans_size() > 0) {
         return absl::InvalidArgumentError(
             "additional_scans: only point-cloud registrations fuse several scans");
@@ -155,6 +216,34 @@ absl::StatusOr<model::ContainerModel> SoilVolumeHandlers::BuildModel(
     return std::move(registered->model);
 }
 
+absl::StatusOr<model::ContainerModel> SoilVolumeHandlers::BuildMeshModel(
+    const v1::RegisterContainerRequest& request, const model::ModelConfig& config,
+    v1::Container* response, CallRecord& record) const {
+    const bool with_scan = request.has_scan();
+    SOILVOL_ASSIGN_OR_RETURN(const MeshRequest mesh,
+                             ToMeshRequest(request.mesh(), with_scan, options_.mesh_budget));
+    record.stages_ms.push_back({"decode", mesh.decode_ms});
+    pipeline::RegistrationConfig registration;
+    registration.model = config;
+    registration.max_capacity_sigma_share = options_.capacity_warning_share;
+    Corners corners{};
+    std::vector<pipeline::EmptyScan> scans;
+    if (with_scan) {
+        SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), "", record));
+        SOILVOL_ASSIGN_OR_RETURN(const pipeline::OpeningMarks marks,
+                                 ToOpeningMarks(request.opening(), false));
+        corners = std::get<Corners>(marks);
+        SOILVOL_ASSIGN_OR_RETURN(
+            scans, DecodeEmptyScans(request, scan.cloud, registration.max_scans, record));
+    }
+    absl::StatusOr<pipeline::Registration> registered =
+        pipeline::RegisterWithMesh(mesh.input, corners, scans, mesh.T_scan_mesh, mesh.range_noise_m,
+                                   registration, record.stop);
+    if (!registered.ok()) return MeshStatus(registered.status(), with_scan);
+    response->set_registered_from(with_scan ? v1::SCAN_KIND_CLOUD : v1::SCAN_KIND_MESH);
+    return std::move(registered->model);
+}
+
 absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRequest& request,
                                                    v1::Container* response, CallRecord& record) {
     const Create create{EntryKind::kContainer, request.container_id(), "container_id",
@@ -162,30 +251,24 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
     bool replayed = false;
     SOILVOL_ASSIGN_OR_RETURN(const std::string id, ClaimId(create, response, &replayed));
     record.ids.push_back({"container", id});
-    if (replayed) return absl::OkStatus();
-    if (!request.has_opening()) {
-        return absl::InvalidArgumentError("opening: is required (corners or pixel_corners)");
+    if (!replayed) {
+        SOILVOL_RETURN_IF_ERROR(CheckSources(request));
+        SOILVOL_ASSIGN_OR_RETURN(const model::ModelConfig config, ModelConfigFor(request));
+        SOILVOL_RETURN_IF_ERROR(ApplySettings(request, response));
+        Timer timer;
+        SOILVOL_ASSIGN_OR_RETURN(const model::ContainerModel model,
+                                 BuildModel(request, config, response, record));
+        record.stages_ms.push_back({"register", timer.Lap()});
+        ToProto(model, response);
+        response->set_container_id(id);
+        if (request.has_max_range_m()) response->set_max_range_m(request.max_range_m());
+        *response->mutable_create_time() = NowTimestamp();
+        *response->mutable_update_time() = response->create_time();
+        SOILVOL_RETURN_IF_ERROR(record.stop.Check("registration, before storing it"));
+        SOILVOL_RETURN_IF_ERROR(Store(create, id, response, model::EncodeModel(model)));
     }
-    SOILVOL_ASSIGN_OR_RETURN(const model::ModelConfig config, ModelConfigFor(request));
-    response->set_display_name(request.display_name());
-    *response->mutable_labels() = request.labels();
-    if (request.has_material()) *response->mutable_material() = request.material();
-    if (request.has_load_targets()) *response->mutable_load_targets() = request.load_targets();
-    SOILVOL_RETURN_IF_ERROR(CheckSettings(*response, ""));
-    SOILVOL_ASSIGN_OR_RETURN(const Scan scan, DecodeScan(request.scan(), "", record));
-    Timer timer;
-    absl::StatusOr<model::ContainerModel> model =
-        BuildModel(request, scan, config, response, record);
-    if (!model.ok()) return model.status();
-    record.stages_ms.push_back({"register", timer.Lap()});
-
-    ToProto(*model, response);
-    response->set_container_id(id);
-    if (request.has_max_range_m()) response->set_max_range_m(request.max_range_m());
-    *response->mutable_create_time() = NowTimestamp();
-    *response->mutable_update_time() = response->create_time();
-    SOILVOL_RETURN_IF_ERROR(record.stop.Check("registration, before storing it"));
-    return Store(create, id, response, model::EncodeModel(*model));
+    AddWarnings(response);
+    return absl::OkStatus();
 }
 
 }  // namespace soilvol::server
@@ -215,9 +298,12 @@ absl::Status SoilVolumeHandlers::UpdateContainer(const v1::UpdateContainerReques
     response->set_container_id(id);
     response->set_etag(NewEtag());
     *response->mutable_update_time() = NowTimestamp();
-    return Annotate(
-        store_.Put(EntryKind::kContainer, id, EncodeStoredRecord(*response, model), true),
-        "container.container_id");
+    response->clear_warnings();  // output only, never stored
+    SOILVOL_RETURN_IF_ERROR(
+        Annotate(store_.Put(EntryKind::kContainer, id, EncodeStoredRecord(*response, model), true),
+                 "container.container_id"));
+    AddWarnings(response);
+    return absl::OkStatus();
 }
 
 }  // namespace soilvol::server

@@ -19,6 +19,7 @@
 #include "server/health_service.hpp"
 #include "server/http_gateway.hpp"
 #include "server/logging.hpp"
+#include "server/mesh_request.hpp"
 #include "server/metrics.hpp"
 #include "server/records/estimate_feed.hpp"
 #include "server/records/recorder.hpp"
@@ -179,7 +180,12 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
                                               stats.pruned,  stats.queued,  feed->watches()};
             });
     }
-    p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get());
+    const std::size_t message_bytes = static_cast<std::size_t>(o.max_message_mb) << 20;
+    HandlerOptions handling;
+    handling.capacity_warning_share = o.capacity_warning_share;
+    handling.mesh_budget = MeshBudgetFor(message_bytes);
+    p.handlers =
+        std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get(), handling);
     p.rpcs = MakeRpcTable(*p.handlers);
     SoilVolumeHandlers* handlers = p.handlers.get();
     p.health = std::make_unique<HealthService>([handlers] { return handlers->CheckReady().ok(); });
@@ -195,7 +201,6 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     HttpGatewayOptions http;
     http.server.address = o.http_address;
     http.server.io_threads = o.http_threads;
-    const std::size_t message_bytes = static_cast<std::size_t>(o.max_message_mb) << 20;
     HttpLimits& limits = http.server.limits;
     limits.max_body_bytes = message_bytes / 3 * 4 + (1u << 20);  // base64 plus the JSON around it
     // Bodies received or held at once: those the workers and the queue can take, and two more.

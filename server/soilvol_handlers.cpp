@@ -54,8 +54,9 @@ absl::Status ListEntries(const EntryStore& store, EntryKind kind, const Request&
 }  // namespace
 
 SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder,
-                                       EstimateFeed* feed)
+                                       EstimateFeed* feed, HandlerOptions options)
     : store_(store),
+      options_(options),
       recorder_(recorder),
       feed_(feed),
       start_time_(NowTimestamp()),
@@ -265,15 +266,18 @@ absl::Status SoilVolumeHandlers::GetContainer(const v1::GetContainerRequest& req
     record.ids.push_back({"container", request.container_id()});
     SOILVOL_ASSIGN_OR_RETURN(auto entry, LoadContainer(request.container_id(), "container_id"));
     *response = entry->info;
+    AddWarnings(response);
     return absl::OkStatus();
 }
 
 absl::Status SoilVolumeHandlers::ListContainers(const v1::ListContainersRequest& request,
                                                 v1::ListContainersResponse* response, CallRecord&) {
-    return ListEntries(
+    SOILVOL_RETURN_IF_ERROR(ListEntries(
         store_, EntryKind::kContainer, request, response,
         [this](const std::string& id) { return LoadContainer(id, "id"); },
-        response->mutable_containers());
+        response->mutable_containers()));
+    for (v1::Container& container : *response->mutable_containers()) AddWarnings(&container);
+    return absl::OkStatus();
 }
 
 absl::Status SoilVolumeHandlers::DeleteContainer(const v1::DeleteContainerRequest& request,

@@ -8,6 +8,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/common/types.hpp"
+#include "core/io/mesh_codec.hpp"
 #include "core/model/container_model.hpp"
 #include "core/pipeline/estimator.hpp"
 #include "core/pipeline/registration.hpp"
@@ -21,6 +22,15 @@
 
 namespace soilvol::server {
 
+/// What the handlers take from the server's options.
+struct HandlerOptions {
+    /// A registration whose struck capacity's 1-sigma exceeds this share of it warns
+    /// (Container.warnings), (0, 1].
+    double capacity_warning_share = 0.01;
+    /// What one registration's mesh may hold (MeshBudgetFor the largest message).
+    io::MeshBudget mesh_budget;
+};
+
 /// The RPCs of soilvol.v1.SoilVolume over proto messages, free of any transport: the gRPC
 /// service and the REST gateway both call these (on a worker of the pool). Each converts the
 /// request to core types, runs the engine, stores or loads entries and fills the response;
@@ -29,7 +39,8 @@ class SoilVolumeHandlers {
   public:
     /// `recorder` keeps estimate records and `feed` serves their watches; null: records are
     /// off (estimates are not kept; Get/List/WatchEstimates fail with FAILED_PRECONDITION).
-    SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder, EstimateFeed* feed);
+    SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder, EstimateFeed* feed,
+                       HandlerOptions options = {});
 
     absl::Status Calibrate(const v1::CalibrateRequest& request, v1::Calibration* response,
                            CallRecord& record);
@@ -105,13 +116,21 @@ class SoilVolumeHandlers {
                                                          const pipeline::EstimateConfig& config,
                                                          v1::Timings* timings,
                                                          const StopToken& stop) const;
-    /// The model of a registration's decoded first scan (stereo, or cloud with the request's
-    /// additional scans fused); sets registered_from and calibration_id in `response`.
+    /// The model of a registration: from its mesh (BuildMeshModel), or from its first scan
+    /// (stereo, or cloud with the request's additional scans fused); sets registered_from and
+    /// calibration_id in `response`.
     absl::StatusOr<model::ContainerModel> BuildModel(const v1::RegisterContainerRequest& request,
-                                                     const Scan& scan,
                                                      const model::ModelConfig& config,
                                                      v1::Container* response,
                                                      CallRecord& record) const;
+    /// The model of a registration with a mesh: with the request's point-cloud scans, or the
+    /// mesh alone at its pose (pipeline::RegisterWithMesh).
+    absl::StatusOr<model::ContainerModel> BuildMeshModel(
+        const v1::RegisterContainerRequest& request, const model::ModelConfig& config,
+        v1::Container* response, CallRecord& record) const;
+    /// `container` as it leaves the server: its warnings computed anew from its figures with
+    /// the configured share (pipeline::CapacityWarnings).
+    void AddWarnings(v1::Container* container) const;
     /// `first` and the request's additional_scans, decoded (at most max_scans in all).
     absl::StatusOr<std::vector<pipeline::EmptyScan>> DecodeEmptyScans(
         const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
@@ -159,6 +178,7 @@ class SoilVolumeHandlers {
     static absl::StatusOr<ContainerEntry> DecodeContainer(const StoredEntry& entry);
 
     EntryStore& store_;
+    const HandlerOptions options_;
     EstimateRecorder* const recorder_;
     EstimateFeed* const feed_;
     const google::protobuf::Timestamp start_time_;

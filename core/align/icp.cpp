@@ -117,6 +117,16 @@ bool Settled(const std::vector<Pose>& history, const AlignConfig& config) {
            Eigen::AngleAxisd(delta.linear()).angle() < config.plateau_rotation_rad;
 }
 
+// True when the best cost of the last `cost_iterations` iterations is no lower than the best
+// before them by more than the relative `cost_decrease`.
+bool CostSettled(const std::vector<double>& costs, const AlignConfig& config) {
+    const auto k = static_cast<std::size_t>(std::max(config.cost_iterations, 1));
+    if (costs.size() <= k) return false;
+    const double before = *std::min_element(costs.begin(), costs.end() - static_cast<long>(k));
+    const double recent = *std::min_element(costs.end() - static_cast<long>(k), costs.end());
+    return recent >= before * (1.0 - config.cost_decrease);
+}
+
 Pose Exp(const Vector6d& xi) {
     Pose step = Pose::Identity();
     const double angle = xi.head<3>().norm();
@@ -243,11 +253,19 @@ AlignResult Align(const Cloud& source, const Cloud& normals, const Cloud& scan,
         const bool fine = s + 1 == stages.size();
         bool stage_converged = false;
         std::vector<Pose> history;
+        std::vector<double> costs;
         while (result.iterations < config.max_iterations && !stage_converged) {
             if (stop.StopRequested()) return result;
             const System sys = Linearize(source, normals, T, target, tree, stages[s],
                                          config.ransac_outlier_rejection_m, min_cos, threads);
             if (sys.count < 6) break;
+            // Converged on the cost: noisy correspondences make the last steps cycle, but the
+            // mean squared residual then stops falling.
+            costs.push_back(sys.sq_sum / static_cast<double>(sys.count));
+            if (CostSettled(costs, config)) {
+                stage_converged = true;
+                break;
+            }
             const Matrix6d H = sys.H + 1e-9 * Matrix6d::Identity();
             const Vector6d xi = H.ldlt().solve(-sys.g);
             T = Exp(xi) * T;

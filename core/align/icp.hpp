@@ -24,6 +24,10 @@ struct AlignConfig {
     double plateau_translation_m = 1e-3;
     double plateau_rotation_rad = 1e-3;
     int plateau_iterations = 4;
+    /// ... or when its cost (mean squared point-to-plane residual) fell by less than this share
+    /// over the last `cost_iterations` iterations.
+    double cost_decrease = 1e-3;
+    int cost_iterations = 5;
     /// A first stage at this correspondence distance catches pose changes larger than the
     /// paper's 5 cm before the fine stage; 0 = paper only.
     double coarse_max_correspondence_m = 0.20;

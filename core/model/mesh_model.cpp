@@ -26,6 +26,25 @@ Eigen::Vector3d Direction(const Eigen::Matrix3d& basis, double a, double b) {
     return (basis.col(2) + std::tan(a) * basis.col(0) + std::tan(b) * basis.col(1)).normalized();
 }
 
+// Points on every triangle: a barycentric lattice of `n` steps a side.
+Cloud SurfaceSamples(const TriangleMesh& mesh, int n) {
+    Cloud out;
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+        const Eigen::Vector3d& a = mesh.vertices[static_cast<std::size_t>(t[0])];
+        const Eigen::Vector3d& b = mesh.vertices[static_cast<std::size_t>(t[1])];
+        const Eigen::Vector3d& c = mesh.vertices[static_cast<std::size_t>(t[2])];
+        for (int i = 0; i <= n; ++i) {
+            for (int j = 0; i + j <= n; ++j) {
+                const double u = (i + 1.0 / 3.0) / (n + 1.0), v = (j + 1.0 / 3.0) / (n + 1.0);
+                out.push_back((a + u * (b - a) + v * (c - a)).cast<float>());
+            }
+        }
+    }
+    return out;
+}
+
+constexpr int kSamplesPerSide = 4;
+
 }  // namespace
 
 Cloud CastMesh(const TriangleMesh& mesh, double step_deg, std::size_t max_rays) {
@@ -129,6 +148,21 @@ absl::StatusOr<ContainerModel> BuildMeshModel(const TriangleMesh& mesh, const Co
             "mesh: the sensor sees none of it at the given pose (is the pose the container's in "
             "the sensor's frame, and the mesh in metres?)");
     }
+    // The sensor sees the inside from above the opening plane, as in any empty scan.
+    {
+        Cloud samples = SurfaceSamples(mesh, kSamplesPerSide);
+        auto placed = MakeOpening(corners_mesh, samples, config.model.opening);
+        if (!placed.ok()) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("mesh.corners: ", placed.status().message()));
+        }
+        const Pose T_scan_container = T_scan_mesh * placed->T_scan_container;
+        if (T_scan_container.inverse().translation().z() <= 0.0) {
+            return absl::InvalidArgumentError(
+                "container_pose: the sensor lies below the opening plane at this pose and cannot "
+                "see the inside (is it the mesh frame in the sensor's frame?)");
+        }
+    }
     Corners corners_scan;
     for (std::size_t i = 0; i < corners_mesh.size(); ++i)
         corners_scan[i] = T_scan_mesh * corners_mesh[i];
@@ -146,9 +180,9 @@ absl::StatusOr<ContainerModel> BuildMeshModel(const TriangleMesh& mesh, const Co
 absl::Status AttachMesh(const TriangleMesh& mesh, const Corners& corners_mesh,
                         const ModelConfig& config, ContainerModel& model, double max_mismatch_m,
                         const StopToken& stop) {
-    Cloud vertices;
-    for (const Eigen::Vector3d& v : mesh.vertices) vertices.push_back(v.cast<float>());
-    auto opening = MakeOpening(corners_mesh, vertices, config.opening);
+    // Which side is the inside: where the mesh's surface lies over the opening (its samples; a
+    // coarse CAD mesh may have no vertex there).
+    auto opening = MakeOpening(corners_mesh, SurfaceSamples(mesh, kSamplesPerSide), config.opening);
     if (!opening.ok()) {
         return absl::InvalidArgumentError(
             absl::StrCat("mesh.opening: ", opening.status().message()));

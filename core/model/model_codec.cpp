@@ -249,6 +249,10 @@ absl::StatusOr<ContainerModel> DecodePayload(std::string_view payload, uint32_t 
             UnseenSide side;
             side.from_corner = r.Get<int32_t>();
             side.to_corner = r.Get<int32_t>();
+            if (side.from_corner < 0 || side.from_corner > 3 || side.to_corner < 0 ||
+                side.to_corner > 3) {
+                r.Fail("unseen side corner is out of range");
+            }
             side.area_m2 = r.GetFinite("unseen area");
             side.sigma_m3 = r.GetFinite("unseen sigma");
             model.unseen.push_back(side);

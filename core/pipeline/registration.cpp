@@ -98,7 +98,7 @@ std::vector<std::string> CapacityWarnings(const model::ContainerModel& model,
         return out;
     }
     std::string message = absl::StrFormat(
-        "the struck capacity's 1-sigma is %.1f L (%.1f%% of %.1f L, above %.1f%%)",
+        "the struck capacity's 1-sigma is %.1f L (%.2g%% of %.1f L, above %.2g%%)",
         1000.0 * model.struck_capacity_sigma_m3, 100.0 * model.struck_capacity_sigma_m3 / struck,
         1000.0 * struck, 100.0 * max_capacity_sigma_share);
     if (model.unseen.empty()) {

@@ -131,8 +131,18 @@ function renderCards() {
       <h3></h3><div class="id"></div><div class="labels"></div>
       <div class="gauge"><div class="band"></div><div class="fill"></div></div>
       <div class="numbers"><span class="volume"></span><span class="badge"></span></div>
-      <div class="numbers muted"><span class="mass"></span><span class="when"></span></div>`;
+      <div class="numbers muted"><span class="mass"></span><span class="when"></span></div>
+      <p class="warning hidden" role="note"><span></span></p>`;
     card.querySelector("h3").textContent = container.displayName || container.containerId;
+    const warnings = container.warnings || [];
+    if (warnings.length) {
+      // The first clause on the card ("the struck capacity's 1-sigma is ..."), all in details.
+      const note = card.querySelector(".warning");
+      note.querySelector("span").textContent = `⚠ ${warnings[0].split(": ")[0]}`;
+      note.title = warnings.join("\n");
+      note.classList.remove("hidden");
+      card.classList.add("warned");
+    }
     card.querySelector(".id").textContent = container.displayName ? container.containerId : "";
     card.querySelector(".labels").textContent = labels;
     const fill = card.querySelector(".gauge .fill");
@@ -188,6 +198,7 @@ async function renderDetail() {
   const status = last ? STATUS(last.result.load && last.result.load.status) : "NONE";
   badge.className = `badge ${status}`;
   badge.textContent = last ? status.replace("_", " ") : "no loads yet";
+  renderWarnings(container);
   renderFacts(container, last);
   renderHistory(container, list);
   renderRecent(list);
@@ -204,6 +215,29 @@ async function renderDetail() {
   }
 }
 
+// What the registration could not know (Container.warnings), in full, above the facts.
+function renderWarnings(container) {
+  const box = $("detail-warnings");
+  box.textContent = "";
+  const warnings = container.warnings || [];
+  box.classList.toggle("hidden", warnings.length === 0);
+  for (const warning of warnings) {
+    const p = document.createElement("p");
+    p.textContent = `⚠ ${warning}`;
+    box.append(p);
+  }
+}
+
+function capacityText(container) {
+  const sigma = container.struckCapacityUncertaintyM3 || 0;
+  return `${fmt(container.struckCapacityM3, 3)} m³ ± ${fmt(1000 * sigma, 1)} L (1σ)`;
+}
+
+function sourceText(container) {
+  const kind = (container.registeredFrom || "SCAN_KIND_UNSPECIFIED").replace("SCAN_KIND_", "").toLowerCase();
+  return container.hasMesh && kind !== "mesh" ? `${kind} + mesh` : kind;
+}
+
 function renderFacts(container, last) {
   const facts = $("facts");
   facts.textContent = "";
@@ -218,7 +252,9 @@ function renderFacts(container, last) {
   if (r && r.load) add("status confidence", `${fmt(100 * r.load.statusProbability, 0)} %`);
   if (r && r.massKg !== undefined) add("mass", `${fmt(r.massKg, 0)} kg`);
   add("fill of struck", r ? `${fmt(100 * r.fillRatio, 1)} %` : "-");
-  add("struck / heaped", `${fmt(container.struckCapacityM3, 3)} / ${fmt(container.heapedCapacityM3, 3)} m³`);
+  add("struck capacity", capacityText(container));
+  add("heaped (SAE)", `${fmt(container.heapedCapacityM3, 3)} m³`);
+  add("registered from", sourceText(container));
   const m = container.material;
   if (m && (m.name || m.densityKgM3)) add("material", `${m.name || ""} ${m.densityKgM3 ? `${m.densityKgM3} kg/m³` : ""}`);
   if (r && r.coverage) add("scan saw", `${fmt(100 * r.coverage.scanObservedShare, 0)} % of the opening`);
@@ -450,7 +486,8 @@ async function upload(event) {
       body.append("request", new Blob([JSON.stringify(request)], { type: "application/json" }));
       body.append("cloud", data.get("cloud"));
       const container = await api("/v1/containers", { method: "POST", body });
-      result.textContent = `registered ${container.containerId}: struck ${fmt(container.struckCapacityM3, 3)} m³`;
+      result.textContent = `registered ${container.containerId}: struck ${capacityText(container)}` +
+        (container.warnings && container.warnings.length ? ` - ⚠ ${container.warnings.join(" ")}` : "");
       await refresh();
     } else {
       body.append("cloud", data.get("cloud"));

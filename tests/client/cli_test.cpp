@@ -64,6 +64,40 @@ TEST(Cli, MalformedCornersExitTwo) {
               std::string::npos);
 }
 
+TEST(Cli, MeshRegistrationsNeedTheirPlacementOrAScan) {
+    const std::string corners = "0,0,0;1,0,0;1,1,0;0,1,0";
+    const std::pair<std::vector<const char*>, const char*> cases[] = {
+        {{"register", "--id", "x", "--mesh", "/dev/null"}, "--mesh-corners"},
+        {{"register", "--id", "x", "--mesh-corners", corners.c_str()}, "--mesh"},
+        {{"register", "--id", "x", "--mesh", "/dev/null", "--mesh-corners", corners.c_str()},
+         "--container-pose and --range-noise"},
+        {{"register", "--id", "x", "--mesh", "/dev/null", "--mesh-corners", corners.c_str(),
+          "--container-pose", "0,0,-3", "--range-noise", "0.01", "--cloud", "/dev/null",
+          "--corners", corners.c_str()},
+         "for a mesh without a scan"},
+        {{"register", "--id", "x", "--mesh", "/dev/null", "--mesh-corners", corners.c_str(),
+          "--container-pose", "0,0,-3;2,0,0,0", "--range-noise", "0.01"},
+         "norm 1"},
+        {{"register", "--id", "x", "--mesh", "/dev/null", "--mesh-corners", corners.c_str(),
+          "--container-pose", "0,0,-3", "--range-noise", "0.01", "--corners", corners.c_str()},
+         "--mesh-corners"},
+        {{"register", "--id", "x", "--cloud", "/dev/null", "--mesh", "/dev/null", "--mesh-corners",
+          corners.c_str()},
+         "--corners"},
+        {{"register", "--id", "x", "--mesh", "/nonexistent/box.stl", "--mesh-corners",
+          corners.c_str(), "--container-pose", "0,0,-3", "--range-noise", "0.01"},
+         "cannot read '/nonexistent/box.stl'"},
+    };
+    for (const auto& [args, fragment] : cases) {
+        std::vector<const char*> with_server = args;
+        with_server.insert(with_server.end(), {"--server", kDeadServer});
+        testing::internal::CaptureStderr();
+        EXPECT_EQ(RunSoilvol(with_server), kExitUsage) << fragment;
+        const std::string err = testing::internal::GetCapturedStderr();
+        EXPECT_NE(err.find(fragment), std::string::npos) << err;
+    }
+}
+
 TEST(Cli, FailedRpcPrintsCodeNameAndExitsOne) {
     for (const auto& args : std::vector<std::vector<const char*>>{
              {"containers", "list", "--server", kDeadServer},

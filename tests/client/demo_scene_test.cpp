@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "core/io/mesh_codec.hpp"
+#include "server/proto_convert.hpp"
+
 namespace soilvol::client {
 namespace {
 
@@ -31,6 +36,30 @@ TEST(SimulateDemoScan, CloudScansAreSeededPlyWithTheirTruth) {
     EXPECT_NEAR(half->true_volume_m3 / half->struck_capacity_m3, 0.5, 0.05);
     EXPECT_EQ(SimulateDemoScan(setup, 0.5, 1, "")->scan.cloud().data(), half->scan.cloud().data());
     EXPECT_NE(SimulateDemoScan(setup, 0.5, 2, "")->scan.cloud().data(), half->scan.cloud().data());
+}
+
+TEST(MakeDemoMesh, IsTheBucketsSurfaceWithItsCornersAndTheScansPoseOfIt) {
+    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, false, 3);
+    const DemoMesh mesh = MakeDemoMesh(setup);
+    const absl::StatusOr<io::DecodedMesh> decoded = io::DecodeMesh(mesh.stl);
+    ASSERT_TRUE(decoded.ok()) << decoded.status();
+    EXPECT_GT(decoded->triangles.size(), 12u);
+    ASSERT_EQ(mesh.opening.corners_size(), 4);
+    // The paper bucket's opening, 2.05 x 0.54 m, in the mesh's frame.
+    const v1::Point3& a = mesh.opening.corners(0);
+    const v1::Point3& b = mesh.opening.corners(1);
+    EXPECT_NEAR(std::hypot(b.x() - a.x(), b.y() - a.y(), b.z() - a.z()), 2.05, 1e-6);
+    // The empty scan's pose of that frame puts the corners where the scan has them.
+    const auto empty = SimulateDemoScan(setup, 0.0, 0, "");
+    ASSERT_TRUE(empty.ok());
+    const absl::StatusOr<Pose> pose = server::ToPose(empty->container_pose, "pose");
+    ASSERT_TRUE(pose.ok()) << pose.status();
+    for (int i = 0; i < 4; ++i) {
+        const v1::Point3& m = mesh.opening.corners(i);
+        const v1::Point3& s = empty->opening.corners(i);
+        const Eigen::Vector3d in_scan = *pose * Eigen::Vector3d(m.x(), m.y(), m.z());
+        EXPECT_LT((in_scan - Eigen::Vector3d(s.x(), s.y(), s.z())).norm(), 1e-6) << i;
+    }
 }
 
 }  // namespace

@@ -47,6 +47,26 @@ TEST(ParseTuples, HostileInputNamesTheFlag) {
     }
 }
 
+TEST(ParsePose, PositionAndQuaternionOrPositionAlone) {
+    const auto pose = ParsePose("0.5, -1, 2.5; 0.7071068,0,0, 0.7071068", "--container-pose");
+    ASSERT_TRUE(pose.ok()) << pose.status();
+    EXPECT_EQ(pose->position_m, (std::array<double, 3>{0.5, -1.0, 2.5}));
+    EXPECT_DOUBLE_EQ(pose->quaternion[3], 0.7071068);
+    const auto plain = ParsePose("1,2,3", "--container-pose");
+    ASSERT_TRUE(plain.ok()) << plain.status();
+    EXPECT_EQ(plain->quaternion, (std::array<double, 4>{1.0, 0.0, 0.0, 0.0}));
+}
+
+TEST(ParsePose, HostileInputNamesTheFlag) {
+    for (const char* text : {"", "1,2", "1,2,3;1,0,0", "1,2,3;1,0,0,0;1", "1,2,3;2,0,0,0",
+                             "1,2,nan", "1,2,3;0,0,0,0", "x,y,z;1,0,0,0", "1,2,3;1,0,0,inf"}) {
+        const auto pose = ParsePose(text, "--container-pose");
+        EXPECT_TRUE(absl::IsInvalidArgument(pose.status())) << text;
+        EXPECT_NE(pose.status().message().find("--container-pose"), absl::string_view::npos)
+            << pose.status();
+    }
+}
+
 TEST(FindChessboardPairs, PairsBySuffixAndReportsTheRest) {
     const TempDir dir("soilvol-pairs");
     const std::string left01 = dir.Touch("left01.jpg");

@@ -8,6 +8,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
+import mesh_scene  # noqa: E402
 from harness import CLI_BIN, shared_server  # noqa: E402
 
 # The demo's own simulator (paper bucket, 4 cm time-of-flight noise): its worst fill reads up to
@@ -109,6 +110,56 @@ class Cli(unittest.TestCase):
             gone = self.run_cli("estimate", "--id", "cli-box", "--cloud", full, check=False)
             self.assertEqual(gone.returncode, 1)
             self.assertIn("NOT_FOUND", gone.stderr)
+
+    def test_register_from_a_mesh_and_show_the_capacitys_uncertainty(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            stl = os.path.join(tmp, "box.stl")
+            empty = os.path.join(tmp, "empty.ply")
+            full = os.path.join(tmp, "fill.ply")
+            with open(stl, "wb") as f:
+                f.write(mesh_scene.mesh_stl())
+            with open(empty, "wb") as f:
+                f.write(box_scene.encode_ply(mesh_scene.scan(0.0, seed=1)))
+            with open(full, "wb") as f:
+                f.write(box_scene.encode_ply(mesh_scene.scan(0.3, seed=2)))
+
+            def tuples(points):
+                return ";".join(",".join(f"{v:.6f}" for v in p) for p in points)
+
+            position, quaternion = mesh_scene.mesh_pose()
+            pose = f"{tuples([position])};{','.join(f'{q:.9f}' for q in quaternion)}"
+            mesh_corners = tuples(mesh_scene.mesh_corners())
+            # The mesh alone, placed before the sensor.
+            out = self.run_cli("register", "--id", "cli-mesh", "--overwrite", "--mesh", stl,
+                               "--mesh-corners", mesh_corners, "--container-pose", pose,
+                               "--range-noise", str(mesh_scene.RANGE_NOISE_M)).stdout
+            self.assertIn("registered from        mesh\n", out)
+            self.assertIn("struck capacity [m^3]  0.7680", out)
+            self.assertIn("struck 1-sigma [L]     0.0", out)
+            self.assertNotIn("warning:", out)
+            est = json.loads(self.run_cli("--json", "estimate", "--id", "cli-mesh", "--cloud",
+                                          full).stdout)
+            self.assertLess(abs(est["volumeM3"] - mesh_scene.truth_m3(0.3)),
+                            0.01 * mesh_scene.STRUCK_M3)
+            # One empty scan alone warns; with the mesh beside it, the inside is known.
+            out = self.run_cli("register", "--id", "cli-scan", "--overwrite", "--cloud", empty,
+                               "--corners", tuples(mesh_scene.scan_opening_corners())).stdout
+            self.assertRegex(out, r"struck 1-sigma \[L\] +1\d\.\d")
+            self.assertIn("unseen sides           corners ", out)
+            self.assertIn("\nwarning: the struck capacity's 1-sigma is ", out)
+            out = self.run_cli("register", "--id", "cli-scan-mesh", "--overwrite", "--cloud",
+                               empty, "--corners", tuples(mesh_scene.scan_opening_corners()),
+                               "--mesh", stl, "--mesh-corners", mesh_corners).stdout
+            self.assertIn("registered from        cloud + mesh\n", out)
+            self.assertNotIn("warning:", out)
+            shown = self.run_cli("containers", "get", "cli-scan").stdout
+            self.assertIn("\nwarning: the struck capacity's 1-sigma is ", shown)
+            listed = self.run_cli("containers", "list").stdout
+            self.assertIn("1-sigma [L]", listed)
+            self.assertIn("\nwarning: cli-scan: the struck capacity's 1-sigma is ", listed)
+            self.assertNotIn("warning: cli-mesh", listed)
+            for cid in ("cli-mesh", "cli-scan", "cli-scan-mesh"):
+                self.run_cli("containers", "delete", cid)
 
     def test_version_matches_the_server(self):
         out = subprocess.run([CLI_BIN, "--version"], capture_output=True, text=True, check=True,

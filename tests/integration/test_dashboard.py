@@ -1,7 +1,8 @@
 """The dashboard in a real browser: headless Chromium (Debian `chromium`) driven over the Chrome
 DevTools Protocol (--remote-debugging-pipe, so no extra Python packages) loads the page the
 server serves at /, with no console errors; a container registered through the API appears; an
-estimate posted through the API shows up within 2 s with its status and a drawn heightmap; the
+estimate posted through the API shows up within 2 s with its status and a drawn heightmap; a
+container whose capacity is unsure carries its warning on its card and in its details; the
 screenshot is written to $SOILVOL_SCREENSHOT_DIR (build/screenshots) for people to look at. Run
 with the server's token auth too: the page takes the token and sends it."""
 import base64
@@ -18,6 +19,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
+import mesh_scene  # noqa: E402
 from harness import SKIPPED, Server, cloud_scan, corners_json, needs_own_server, token_line  # noqa: E402
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -155,6 +157,14 @@ def register(server, cid, name, target_m3):
         "loadTargets": {"volumeM3": target_m3, "carrybackM3": 0.01}})
 
 
+def register_one_view(server, cid):
+    """A bin seen from one side only: its capacity's 1-sigma is about 2% (a warning)."""
+    return server.rest("POST", "/v1/containers", {
+        "containerId": cid, "displayName": "Bin 3", "overwrite": True,
+        "scan": cloud_scan(box_scene.encode_ply(mesh_scene.scan(0.0, seed=1))),
+        "opening": corners_json(mesh_scene.scan_opening_corners())})
+
+
 def estimate(server, cid, fill_m, request_id):
     scan = box_scene.encode_ply(box_scene.box_scan(fill_m, seed=len(request_id)))
     return server.rest("POST", f"/v1/containers/{cid}:estimate",
@@ -182,6 +192,16 @@ class Dashboard(unittest.TestCase):
             self.assertEqual(register(server, "truck-2", "Truck 2", 0.25)[0], 200)
             self.assertTrue(browser.wait_for(
                 "document.querySelector('[data-container=\"truck-2\"]') !== null", 10))
+            status, warned = register_one_view(server, "bin-3")
+            self.assertEqual(status, 200, warned)
+            self.assertEqual(len(warned["warnings"]), 1, warned)
+            # Its card carries the warning as a visible note; the others none.
+            self.assertTrue(browser.wait_for(
+                "(() => { const n = document.querySelector('[data-container=\"bin-3\"] .warning');"
+                " return n && n.offsetHeight > 0 && n.textContent.includes('1-sigma'); })()", 10),
+                browser.errors())
+            self.assertEqual(browser.evaluate(
+                "document.querySelectorAll('.card .warning:not(.hidden)').length"), 1)
             self.assertTrue(browser.wait_for("document.getElementById('live').textContent === 'live'", 10))
             status, answer = estimate(server, "truck-1", 0.2, "browser-load-1")
             self.assertEqual(status, 200, answer)
@@ -205,10 +225,25 @@ class Dashboard(unittest.TestCase):
             self.assertGreater(painted, 10000)
             self.assertEqual(browser.evaluate("document.getElementById('detail-status').textContent"),
                              "LOADED OK")
+            self.assertIn("± 0.", browser.evaluate("document.getElementById('facts').textContent"))
+            self.assertTrue(browser.evaluate(
+                "document.getElementById('detail-warnings').classList.contains('hidden')"))
             os.makedirs(SCREENSHOTS, exist_ok=True)
             path = os.path.join(SCREENSHOTS, screenshot_name)
             browser.screenshot(path)
             self.assertGreater(os.path.getsize(path), 20000)
+            # The warned bin's details: its capacity with the 1-sigma, the warning in full.
+            browser.evaluate("document.querySelector('[data-container=\"bin-3\"]').click(); true")
+            self.assertTrue(browser.wait_for(
+                "document.getElementById('detail-title').textContent === 'Bin 3'", 5))
+            shown = browser.evaluate("document.getElementById('detail-warnings').textContent")
+            self.assertIn(warned["warnings"][0], shown)
+            self.assertTrue(browser.evaluate(
+                "document.getElementById('detail-warnings').offsetHeight > 0"))
+            sigma_l = 1000 * warned["struckCapacityUncertaintyM3"]
+            self.assertIn(f"± {sigma_l:.1f} L (1σ)",
+                          browser.evaluate("document.getElementById('facts').textContent"))
+            browser.screenshot(os.path.join(SCREENSHOTS, "warned-" + screenshot_name))
             self.assertEqual(browser.errors(), [])
         finally:
             browser.close()

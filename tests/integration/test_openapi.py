@@ -51,6 +51,13 @@ class OpenApi(unittest.TestCase):
         estimate = self.doc["paths"]["/v1/containers/{container_id}:estimate"]["post"]
         self.assertIn("application/octet-stream", estimate["consumes"])
         self.assertIn("multipart/form-data", estimate["consumes"])
+        register = self.doc["paths"]["/v1/containers"]["post"]
+        self.assertIn("multipart/form-data", register["consumes"])
+        # A registration's mesh travels as bytes (base64 in JSON) beside its placement.
+        mesh = self.doc["definitions"]["v1MeshScan"]["properties"]
+        self.assertEqual(mesh["data"]["format"], "byte")
+        self.assertEqual(set(mesh), {"data", "corners", "container_pose", "range_noise_m"})
+        self.assertIn("warnings", self.doc["definitions"]["v1Container"]["properties"])
 
     def test_every_annotated_rpc_is_documented(self):
         self.assertEqual(self.documented(), annotated_routes())

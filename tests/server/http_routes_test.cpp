@@ -232,6 +232,80 @@ TEST_F(BindRequestTest, RoutesWithoutAScanTakeNoFiles) {
         absl::IsInvalidArgument(Bind("RegisterContainer", "", "text/plain", "x", &request)));
 }
 
+TEST_F(BindRequestTest, BinaryBodyIsTheMeshWhenTheQuerySaysSo) {
+    v1::RegisterContainerRequest request;
+    std::string body = std::string("solid\0stl", 9);
+    const std::string stl = body;
+    // A message given as JSON in the query does not clear the file, bound after it.
+    const absl::Status status =
+        Bind("RegisterContainer",
+             "file=mesh&containerId=m1&mesh=%7B%22rangeNoiseM%22%3A0.01%7D&"
+             "mesh.corners=%7B%22x%22%3A1%7D&mesh.containerPose.positionM.z=-2",
+             "application/octet-stream", body, &request);
+    ASSERT_TRUE(status.ok()) << status;
+    EXPECT_EQ(request.mesh().data(), stl);
+    EXPECT_FALSE(request.has_scan());
+    EXPECT_EQ(request.container_id(), "m1");
+    EXPECT_DOUBLE_EQ(request.mesh().range_noise_m(), 0.01);
+    ASSERT_EQ(request.mesh().corners_size(), 1);
+    EXPECT_DOUBLE_EQ(request.mesh().container_pose().position_m().z(), -2.0);
+    v1::RegisterContainerRequest cloud;
+    ASSERT_TRUE(
+        Bind("RegisterContainer", "file=cloud", "application/octet-stream", "ply", &cloud).ok());
+    EXPECT_EQ(cloud.scan().cloud().data(), "ply");
+    EXPECT_FALSE(cloud.has_mesh());
+}
+
+TEST_F(BindRequestTest, BinaryBodyFilesOutsideTheRouteNameTheParameter) {
+    const std::pair<std::string, std::string> cases[] = {
+        {"file=left", "file: 'left' is not cloud or mesh"},
+        {"file=nope", "file: 'nope' is not cloud or mesh"},
+        {"file=mesh&file=mesh", "file: is given twice"},
+        {"file=mesh&mesh.data=abc", "mesh.data: bytes cannot be set"},
+        {"file=mesh&mesh=%7B%22data%22%3A%22c3Rs%22%7D", "mesh.data: given twice"},
+    };
+    for (const auto& [query, message] : cases) {
+        v1::RegisterContainerRequest request;
+        const absl::Status status =
+            Bind("RegisterContainer", query, "application/octet-stream", "stl", &request);
+        EXPECT_TRUE(absl::IsInvalidArgument(status)) << query;
+        EXPECT_NE(status.message().find(message), std::string::npos) << status << " for " << query;
+    }
+    v1::EstimateVolumeRequest estimate;
+    const absl::Status status =
+        Bind("EstimateVolume", "file=mesh", "application/octet-stream", "stl", &estimate);
+    EXPECT_EQ(status.message(), "file: this route takes no mesh") << status;
+    // On JSON and multipart bodies `file` is no parameter.
+    v1::RegisterContainerRequest json;
+    EXPECT_TRUE(absl::IsInvalidArgument(
+        Bind("RegisterContainer", "file=mesh", "application/json", "{}", &json)));
+}
+
+TEST_F(BindRequestTest, MultipartMeshPartFillsTheMeshBesideTheCloud) {
+    const std::string body =
+        "--B\r\nContent-Disposition: form-data; name=\"mesh\"; filename=\"b.stl\"\r\n\r\nSTL\r\n"
+        "--B\r\nContent-Disposition: form-data; name=\"mesh.rangeNoiseM\"\r\n\r\n0.02\r\n"
+        "--B\r\nContent-Disposition: form-data; name=\"cloud\"; filename=\"e.ply\"\r\n\r\nPLY\r\n"
+        "--B\r\nContent-Disposition: form-data; name=\"request\"\r\n\r\n"
+        "{\"containerId\": \"s2\", \"mesh\": {\"corners\": [{\"x\": 1}, {\"y\": 2}]}}\r\n"
+        "--B--\r\n";
+    v1::RegisterContainerRequest request;
+    const absl::Status status =
+        Bind("RegisterContainer", "", "multipart/form-data; boundary=B", body, &request);
+    ASSERT_TRUE(status.ok()) << status;
+    EXPECT_EQ(request.mesh().data(), "STL");
+    EXPECT_EQ(request.mesh().corners_size(), 2);
+    EXPECT_DOUBLE_EQ(request.mesh().range_noise_m(), 0.02);
+    EXPECT_EQ(request.scan().cloud().data(), "PLY");
+    const std::string estimate_body =
+        "--B\r\nContent-Disposition: form-data; name=\"mesh\"\r\n\r\nSTL\r\n--B--\r\n";
+    v1::EstimateVolumeRequest estimate;
+    const absl::Status refused =
+        Bind("EstimateVolume", "", "multipart/form-data; boundary=B", estimate_body, &estimate);
+    EXPECT_NE(refused.message().find("part 'mesh': this route takes no mesh"), std::string::npos)
+        << refused;
+}
+
 TEST(GrpcTimeout, ParsesEveryUnitAndRefusesJunk) {
     EXPECT_DOUBLE_EQ(*ParseGrpcTimeout("10S"), 10000.0);
     EXPECT_DOUBLE_EQ(*ParseGrpcTimeout("500m"), 500.0);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace soilvol::server {
 namespace {
 
@@ -38,6 +40,10 @@ TEST(ServerOptions, EachBadValueNamesItsFlag) {
         {"--metrics", [](ServerOptions& o) { o.metrics = "public"; }},
         {"--probe-address", [](ServerOptions& o) { o.probe_address = "8081"; }},
         {"--grpc-max-connection-age-s", [](ServerOptions& o) { o.grpc_max_connection_age_s = -1; }},
+        {"--capacity-warning-share", [](ServerOptions& o) { o.capacity_warning_share = 0.0; }},
+        {"--capacity-warning-share", [](ServerOptions& o) { o.capacity_warning_share = 1.5; }},
+        {"--capacity-warning-share",
+         [](ServerOptions& o) { o.capacity_warning_share = std::nan(""); }},
     };
     for (const Case& c : cases) {
         ServerOptions options;

@@ -123,5 +123,27 @@ TEST(ProtoConvert, ChessboardSpecIsChecked) {
     ExpectInvalid(ToChessboardSpec(board).status(), "chessboard.square_size_m");
 }
 
+TEST(ProtoConvert, ContainerCarriesTheCapacitysUncertaintyUnseenSidesAndMesh) {
+    model::ContainerModel model;
+    model.struck_capacity_m3 = 0.66;
+    model.struck_capacity_sigma_m3 = 0.017;
+    model.unseen = {{0, 1, 0.2, 0.016}, {1, 2, 0.005, 0.001}};
+    v1::Container proto;
+    proto.add_unseen_sides();  // replaced, not appended to
+    ToProto(model, &proto);
+    EXPECT_DOUBLE_EQ(proto.struck_capacity_uncertainty_m3(), 0.017);
+    ASSERT_EQ(proto.unseen_sides_size(), 2);
+    EXPECT_EQ(proto.unseen_sides(0).from_corner(), 0);
+    EXPECT_EQ(proto.unseen_sides(0).to_corner(), 1);
+    EXPECT_DOUBLE_EQ(proto.unseen_sides(0).area_m2(), 0.2);
+    EXPECT_DOUBLE_EQ(proto.unseen_sides(1).uncertainty_m3(), 0.001);
+    EXPECT_FALSE(proto.has_mesh());
+    model.mesh.vertices = {Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(),
+                           Eigen::Vector3d::UnitY()};
+    model.mesh.triangles = {Eigen::Vector3i(0, 1, 2)};
+    ToProto(model, &proto);
+    EXPECT_TRUE(proto.has_mesh());
+}
+
 }  // namespace
 }  // namespace soilvol::server

@@ -74,6 +74,38 @@ TEST(ModelCodecTest, RoundTripKeepsEveryField) {
     EXPECT_EQ(EncodeModel(*decoded), EncodeModel(m));
 }
 
+TEST(ModelCodecTest, RoundTripKeepsWallsMeshAndUnseenSides) {
+    ContainerModel m = Model();
+    m.walls = {{2, 0.031, 0.003, {{-0.1, 0.02}, {-0.5, 0.08}}, 420}};
+    m.mesh = {{{0, 0, 0}, {1, 0, 0}, {0, 1, -0.5}}, {{0, 1, 2}}};
+    m.unseen = {{2, 3, 0.12, 0.004}};
+    m.struck_capacity_sigma_m3 = 0.0051;
+    m.opening.corner_of_vertex = {3, 2, 1, 0};
+    const auto decoded = DecodeModel(EncodeModel(m));
+    ASSERT_TRUE(decoded.ok()) << decoded.status();
+    ASSERT_EQ(decoded->walls.size(), 1u);
+    EXPECT_EQ(decoded->walls[0].edge, 2);
+    EXPECT_EQ(decoded->walls[0].thickness_sigma_m, 0.003);
+    EXPECT_EQ(decoded->walls[0].profile, m.walls[0].profile);
+    EXPECT_EQ(decoded->mesh.vertices, m.mesh.vertices);
+    EXPECT_EQ(decoded->mesh.triangles, m.mesh.triangles);
+    ASSERT_EQ(decoded->unseen.size(), 1u);
+    EXPECT_EQ(decoded->unseen[0].from_corner, 2);
+    EXPECT_EQ(decoded->unseen[0].sigma_m3, 0.004);
+    EXPECT_EQ(decoded->struck_capacity_sigma_m3, 0.0051);
+    EXPECT_EQ(decoded->opening.corner_of_vertex, m.opening.corner_of_vertex);
+    EXPECT_EQ(EncodeModel(*decoded), EncodeModel(m));
+}
+
+TEST(ModelCodecTest, MeshIndexOutOfRangeIsDataLoss) {
+    ContainerModel m = Model();
+    m.mesh = {{{0, 0, 0}, {1, 0, 0}, {0, 1, -0.5}}, {{0, 1, 3}}};
+    const auto decoded = DecodeModel(EncodeModel(m));
+    ASSERT_FALSE(decoded.ok());
+    EXPECT_EQ(decoded.status().code(), absl::StatusCode::kDataLoss);
+    EXPECT_NE(decoded.status().message().find("mesh triangle index"), std::string::npos);
+}
+
 TEST(ModelCodecTest, EveryTruncationIsDataLoss) {
     const std::string file = EncodeModel(Model());
     for (std::size_t n = 0; n < file.size(); n += 1 + n / 7) {
