@@ -492,7 +492,7 @@ class CapacityWarnings(unittest.TestCase):
                 side = box["unseenSides"][0]
                 self.assertIn(f"from corner {side['fromCorner'] + 1} to corner "
                               f"{side['toCorner'] + 1}", warning)
-                self.assertIn("above 1.0%", warning)
+                self.assertIn("above 1%", warning)
                 status, mesh = server.rest("POST", "/v1/containers", {
                     "containerId": "box-mesh", "mesh": mesh_alone_json()})
                 self.assertEqual(status, 200, mesh)
