@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # CI's fuzzing phase: the libFuzzer targets of tests/fuzz, built with clang under
-# AddressSanitizer + UndefinedBehaviorSanitizer, each run for SOILVOL_FUZZ_SECONDS (default 30)
+# AddressSanitizer + UndefinedBehaviorSanitizer, each run for SOILVOL_FUZZ_SECONDS (default 20)
 # from the committed seeds plus those soilvol's encoders write. Any crash, leak, sanitizer
 # finding or broken round trip fails the phase; the input that did it is kept in the build dir
 # (crash-*, leak-*, timeout-*) for a regression test. Build dir ${SOILVOL_FUZZ_BUILD_DIR:-build-fuzz}.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir="${SOILVOL_FUZZ_BUILD_DIR:-build-fuzz}"
-seconds="${SOILVOL_FUZZ_SECONDS:-30}"
+seconds="${SOILVOL_FUZZ_SECONDS:-20}"
 targets=(fuzz_cloud_decoder fuzz_mesh_decoder fuzz_image_header fuzz_model_codec
     fuzz_http_binding fuzz_calibration_record fuzz_token_file fuzz_multipart fuzz_resource_rules)
 scripts/install-deps.sh fuzz
