@@ -4,9 +4,9 @@
 #include <Eigen/Geometry>
 #include <optional>
 
+#include "core/common/triangle_bvh.hpp"
 #include "core/sim/scene.hpp"
 #include "core/sim/soil_surface.hpp"
-#include "core/common/triangle_bvh.hpp"
 
 namespace soilvol::sim {
 
