@@ -197,13 +197,13 @@ bool EntersThroughOpening(const Eigen::Vector3d& sensor, const Eigen::Vector3f& 
     return opening.Contains(crossing.head<2>());
 }
 
-Cloud ThroughOpening(const Cloud& points, const Eigen::Vector3d& sensor, const Polygon2d& opening) {
-    Cloud kept;
-    kept.reserve(points.size());
-    for (const Eigen::Vector3f& p : points) {
-        if (EntersThroughOpening(sensor, p, opening)) kept.push_back(p);
-    }
-    return kept;
+Cloud ThroughOpening(Cloud points, const Eigen::Vector3d& sensor, const Polygon2d& opening) {
+    points.erase(std::remove_if(points.begin(), points.end(),
+                                [&](const Eigen::Vector3f& p) {
+                                    return !EntersThroughOpening(sensor, p, opening);
+                                }),
+                 points.end());
+    return points;
 }
 
 }  // namespace soilvol::model

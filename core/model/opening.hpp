@@ -46,8 +46,9 @@ absl::StatusOr<Opening> MakeOpening(const Corners& corners_scan, const Cloud& em
 bool EntersThroughOpening(const Eigen::Vector3d& sensor, const Eigen::Vector3f& p,
                           const Polygon2d& opening);
 
-/// The points of `points` (container frame, seen from `sensor`) that EntersThroughOpening.
-Cloud ThroughOpening(const Cloud& points, const Eigen::Vector3d& sensor, const Polygon2d& opening);
+/// The points of `points` (container frame, seen from `sensor`) that EntersThroughOpening, in
+/// their order (filtered in place: move a cloud in that is not needed after).
+Cloud ThroughOpening(Cloud points, const Eigen::Vector3d& sensor, const Polygon2d& opening);
 
 /// `points` mapped from the scan frame into the container frame by `T_scan_container`.
 Cloud ToContainerFrame(const Cloud& points, const Pose& T_scan_container);

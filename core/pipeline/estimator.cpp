@@ -257,9 +257,9 @@ absl::StatusOr<volume::VolumeResult> IntegrateVolume(
     // opening whose ray came through a wall is the wall's outside); every other return weighs
     // by what it tells of the height under it, seen along its ray.
     const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
-    const WeightedCloud selected = volume::SelectColumn(
-        WeightedCloud{model::ThroughOpening(aligned, sensor, opening), {}, sensor}, opening,
-        -model.depth_m, config.heightmap);
+    WeightedCloud selected = volume::SelectColumn(WeightedCloud{aligned, {}, sensor}, opening,
+                                                  -model.depth_m, config.heightmap);
+    selected.points = model::ThroughOpening(std::move(selected.points), sensor, opening);
     SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
     WeightedCloud column = model::RemoveStructure(model, selected);
     SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));

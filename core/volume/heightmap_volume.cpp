@@ -191,6 +191,7 @@ WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, 
     const double z_max = config.max_heap_slope * MaxInradius(opening) + config.column_margin_m;
     WeightedCloud column;
     column.sensor = scan.sensor;
+    column.points.reserve(scan.points.size());
     for (std::size_t i = 0; i < scan.points.size(); ++i) {
         const Eigen::Vector3f& p = scan.points[i];
         const double x = static_cast<double>(p.x()), y = static_cast<double>(p.y());
