@@ -257,6 +257,31 @@ def corners_json(corners):
     return {"corners": [{"x": x, "y": y, "z": z} for x, y, z in corners]}
 
 
+CURL = shutil.which("curl")
+
+
+def write_file(directory, name, data):
+    """Writes `data` (bytes) to `directory`/`name`; returns the path."""
+    path = os.path.join(directory, name)
+    with open(path, "wb") as f:
+        f.write(data)
+    return path
+
+
+def curl_json(server, path, *args):
+    """(HTTP status, parsed JSON or None) of `curl <args> <server><path>`, with the server's CA
+    and token when it has them: what an integrator's shell script sends."""
+    cmd = [CURL, "-sS", "-o", "-", "-w", "\n%{http_code}"]
+    if getattr(server, "tls_ca", None):
+        cmd += ["--cacert", server.tls_ca]
+    if getattr(server, "token", None):
+        cmd += ["-H", f"Authorization: Bearer {server.token}"]
+    out = subprocess.run(cmd + list(args) + ["--url", server.base_url + path], check=True,
+                         capture_output=True, timeout=120).stdout.decode()
+    body, _, status = out.rpartition("\n")
+    return int(status), json.loads(body) if body else None
+
+
 def wait_until(predicate, timeout_s=10.0, step_s=0.05):
     end = time.time() + timeout_s
     while time.time() < end:

@@ -19,13 +19,12 @@ import urllib.parse
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
 import mesh_scene  # noqa: E402
-from harness import (CLI_BIN, SERVER_BIN, TIME_SCALE, Server, b64, load_grpc,  # noqa: E402
-                     needs_own_server, shared_server)
+from harness import (CLI_BIN, CURL, SERVER_BIN, TIME_SCALE, Server, b64,  # noqa: E402
+                     curl_json, load_grpc, needs_own_server, shared_server, write_file)
 
 grpc, pb, pb_grpc = load_grpc()
 from google.rpc import error_details_pb2, status_pb2  # noqa: E402  (generated beside the stubs)
 
-CURL = shutil.which("curl")
 # A mesh registration reads the box to within this share of its struck capacity (ray-cast
 # scans with 3 mm noise; measured: 1.5 L at most, mesh alone or with a scan).
 TOLERANCE_OF_STRUCK = 0.01
@@ -104,22 +103,11 @@ class MeshFlow(unittest.TestCase):
 
     @classmethod
     def write(cls, name, data):
-        path = os.path.join(cls.dir, name)
-        with open(path, "wb") as f:
-            f.write(data)
-        return path
+        return write_file(cls.dir, name, data)
 
     def curl(self, path, *args):
         """(HTTP status, parsed JSON) of `curl <args> <server><path>`."""
-        cmd = [CURL, "-sS", "-o", "-", "-w", "\n%{http_code}"]
-        if getattr(self.server, "tls_ca", None):
-            cmd += ["--cacert", self.server.tls_ca]
-        if getattr(self.server, "token", None):
-            cmd += ["-H", f"Authorization: Bearer {self.server.token}"]
-        out = subprocess.run(cmd + list(args) + ["--url", self.server.base_url + path],
-                             check=True, capture_output=True, timeout=120).stdout.decode()
-        body, _, status = out.rpartition("\n")
-        return int(status), json.loads(body) if body else None
+        return curl_json(self.server, path, *args)
 
     def assert_mesh_container(self, container, kind):
         """`container` (proto3 JSON) holds the mesh's exact capacity and no warning."""

@@ -4,7 +4,6 @@ request part and files), for RegisterContainer and EstimateVolume, up to a 10 MB
 import json
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import unittest
@@ -12,10 +11,9 @@ import urllib.parse
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import SKIPPED, corners_json, shared_server  # noqa: E402
+from harness import CURL, SKIPPED, corners_json, curl_json, shared_server, write_file  # noqa: E402
 
 TOLERANCE_OF_STRUCK = 0.04
-CURL = shutil.which("curl")
 if CURL is None:
     print("skipped: curl is not installed", file=sys.stderr)
     sys.exit(1 if os.environ.get("SOILVOL_REQUIRE_TOOLS") else SKIPPED)
@@ -40,22 +38,11 @@ class Uploads(unittest.TestCase):
 
     @classmethod
     def write(cls, name, data):
-        path = os.path.join(cls.dir, name)
-        with open(path, "wb") as f:
-            f.write(data)
-        return path
+        return write_file(cls.dir, name, data)
 
     def curl(self, path, *args):
         """(HTTP status, parsed JSON) of `curl <args> <server><path>`."""
-        cmd = [CURL, "-sS", "-o", "-", "-w", "\n%{http_code}"]
-        if getattr(self.server, "tls_ca", None):
-            cmd += ["--cacert", self.server.tls_ca]
-        if getattr(self.server, "token", None):
-            cmd += ["-H", f"Authorization: Bearer {self.server.token}"]
-        out = subprocess.run(cmd + list(args) + [self.server.base_url + path], check=True,
-                             capture_output=True, timeout=120).stdout.decode()
-        body, _, status = out.rpartition("\n")
-        return int(status), json.loads(body) if body else None
+        return curl_json(self.server, path, *args)
 
     def register_binary(self, cid):
         query = urllib.parse.urlencode({"containerId": cid, "overwrite": "true",
