@@ -240,8 +240,9 @@ absl::StatusOr<volume::VolumeResult> IntegrateVolume(const model::ContainerModel
                                                      const EstimateConfig& config,
                                                      const StopToken& stop) {
     if (config.method == volume::Method::kPaper) {
-        const WeightedCloud column = volume::SelectColumn(
-            WeightedCloud{aligned, {}}, model.opening.polygon, -model.depth_m, config.heightmap);
+        const WeightedCloud column =
+            volume::SelectColumn(aligned, {}, Eigen::Vector3d::Zero(), model.opening.polygon,
+                                 -model.depth_m, config.heightmap);
         return volume::PaperVolume(model.inside, column.points, model.opening.polygon, config.paper,
                                    stop);
     }
@@ -257,8 +258,8 @@ absl::StatusOr<volume::VolumeResult> IntegrateVolume(
     // opening whose ray came through a wall is the wall's outside); every other return weighs
     // by what it tells of the height under it, seen along its ray.
     const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
-    WeightedCloud selected = volume::SelectColumn(WeightedCloud{aligned, {}, sensor}, opening,
-                                                  -model.depth_m, config.heightmap);
+    WeightedCloud selected =
+        volume::SelectColumn(aligned, {}, sensor, opening, -model.depth_m, config.heightmap);
     selected.points = model::ThroughOpening(std::move(selected.points), sensor, opening);
     SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
     WeightedCloud column = model::RemoveStructure(model, selected);

@@ -184,21 +184,22 @@ double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening
     return std::min(config.min_cell_m * std::exp2(steps / kStepsPerOctave), max_cell);
 }
 
-WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, double empty_min_z,
-                           const HeightmapConfig& config) {
+WeightedCloud SelectColumn(const Cloud& points, const std::vector<float>& weights,
+                           const Eigen::Vector3d& sensor, const Polygon2d& opening,
+                           double empty_min_z, const HeightmapConfig& config) {
     const Eigen::Vector2d lo = opening.Min(), hi = opening.Max();
     const double z_min = empty_min_z - config.column_margin_m;
     const double z_max = config.max_heap_slope * MaxInradius(opening) + config.column_margin_m;
     WeightedCloud column;
-    column.sensor = scan.sensor;
-    column.points.reserve(scan.points.size());
-    for (std::size_t i = 0; i < scan.points.size(); ++i) {
-        const Eigen::Vector3f& p = scan.points[i];
+    column.sensor = sensor;
+    column.points.reserve(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const Eigen::Vector3f& p = points[i];
         const double x = static_cast<double>(p.x()), y = static_cast<double>(p.y());
         const double z = static_cast<double>(p.z());
         if (x >= lo.x() && x <= hi.x() && y >= lo.y() && y <= hi.y() && z >= z_min && z <= z_max) {
             column.points.push_back(p);
-            if (!scan.weights.empty()) column.weights.push_back(scan.weights[i]);
+            if (!weights.empty()) column.weights.push_back(weights[i]);
         }
     }
     return column;
@@ -251,7 +252,8 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
 absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const WeightedCloud& scan,
                                              const Polygon2d& opening,
                                              const HeightmapConfig& config, const StopToken& stop) {
-    const WeightedCloud column = SelectColumn(scan, opening, empty_side.min_z, config);
+    const WeightedCloud column =
+        SelectColumn(scan.points, scan.weights, scan.sensor, opening, empty_side.min_z, config);
     SOILVOL_RETURN_IF_ERROR(stop.Check("grid"));
     const double cell_m =
         config.cell_m > 0.0

@@ -36,10 +36,12 @@ struct HeightmapConfig {
 double AutomaticCellSize(std::size_t points_in_opening, const Polygon2d& opening,
                          const HeightmapConfig& config);
 
-/// The points of `scan` (container frame) that can belong to the contents: over the opening,
-/// no deeper than the empty surface minus the margin, no higher than the steepest heap.
-WeightedCloud SelectColumn(const WeightedCloud& scan, const Polygon2d& opening, double empty_min_z,
-                           const HeightmapConfig& config);
+/// The points (container frame; with their weights when `weights` is not empty) that can belong
+/// to the contents: over the opening, no deeper than the empty surface minus the margin, no
+/// higher than the steepest heap; seen from `sensor`. Reads the scan in place: no copy of it.
+WeightedCloud SelectColumn(const Cloud& points, const std::vector<float>& weights,
+                           const Eigen::Vector3d& sensor, const Polygon2d& opening,
+                           double empty_min_z, const HeightmapConfig& config);
 
 /// The empty container's surface over a grid. Cells no empty scan saw well enough lie between
 /// the plane their neighbours continue (or the returns they hold, if higher) and the lowest
