@@ -32,6 +32,7 @@ struct Split {
     double total = 0.0;  // the product's answer (clipped at 0) minus the truth
     double pose = 0.0, empty = 0.0, soil = 0.0, grid = 0.0;
     double sigma = 0.0;  // the product's 1-sigma
+    double pose_sigma = 0.0;  // its part from the pose covariance
     double height_mm = 0.0, tilt_deg = 0.0;
     // At the true pose, the empty and scan surfaces' errors [% of struck] over the cells whose
     // true empty surface falls by more than a cell across it (walls), and over the rest.
@@ -173,6 +174,7 @@ Split SplitError(const RegisteredModel& reg, const sim::ContainerGeometry& geome
     out.pose = pct * (product->volume.raw_volume_m3 - at_pose->raw_volume_m3);
     out.total = pct * (product->volume_m3 - scene.true_volume_m3);
     out.sigma = pct * product->uncertainty_m3;
+    out.pose_sigma = pct * product->pose_uncertainty_m3;
     const Pose delta = T_true.inverse() * product->alignment.T_scan_container;
     out.height_mm = 1000.0 * delta.translation().z();
     out.tilt_deg = std::acos(std::clamp(delta.linear()(2, 2), -1.0, 1.0)) * 180.0 / kPi;
@@ -233,10 +235,10 @@ void KvLine(std::ostream& kv, const std::string& family, int scans, int seed, do
             double noise, const Split& s) {
     kv << absl::StrFormat(
         "budget family=%s scans=%d seed=%d fill=%.2f noise_m=%.3f refused=%d total=%.3f "
-        "pose=%.3f empty=%.3f soil=%.3f grid=%.3f sigma=%.3f height_mm=%.2f tilt_deg=%.3f "
+        "pose=%.3f empty=%.3f soil=%.3f grid=%.3f sigma=%.3f pose_sigma=%.3f height_mm=%.2f tilt_deg=%.3f "
         "empty_wall=%.3f empty_flat=%.3f scan_wall=%.3f scan_flat=%.3f\n",
         family, scans, seed, fill, noise, s.refused ? 1 : 0, s.total, s.pose, s.empty, s.soil,
-        s.grid, s.sigma, s.height_mm, s.tilt_deg, s.empty_wall, s.empty_flat, s.scan_wall,
+        s.grid, s.sigma, s.pose_sigma, s.height_mm, s.tilt_deg, s.empty_wall, s.empty_flat, s.scan_wall,
         s.scan_flat);
 }
 

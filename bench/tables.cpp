@@ -52,9 +52,11 @@ struct Stats {
 struct MethodStats {
     Stats estimate_l, error_l, cells_total, cells_empty, uncertainty_l;
     int failures = 0;
+    std::string last_failure;
     void Add(const absl::StatusOr<pipeline::VolumeEstimate>& e, double true_l) {
         if (!e.ok()) {
             ++failures;
+            last_failure = e.status().ToString();
             return;
         }
         estimate_l.Add(e->volume_m3 * kLitre);
@@ -311,8 +313,9 @@ std::string RobustnessTable(int seeds, std::ostream& kv) {
                               seeds);
         kv << absl::StrFormat(
             "robustness variant=\"%s\" true_l=%.2f estimate_l=%.2f err_l=%+.2f "
-            "abs_err_l=%.2f failures=%d\n",
-            v.name, t, h.estimate_l.Mean(), h.error_l.Mean(), h.error_l.MeanAbs(), h.failures);
+            "abs_err_l=%.2f failures=%d last_failure=\"%s\"\n",
+            v.name, t, h.estimate_l.Mean(), h.error_l.Mean(), h.error_l.MeanAbs(), h.failures,
+            h.last_failure);
     }
     md << "\n";
     return md.str();

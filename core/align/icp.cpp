@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/strings/str_format.h"
+#include "core/common/angles.hpp"
 #include "core/cloud/kd_tree.hpp"
 #include "core/cloud/local_surface.hpp"
 #include "core/cloud/voxel_grid.hpp"
@@ -137,8 +138,35 @@ Pose Exp(const Vector6d& xi) {
     return step;
 }
 
+// How many alignment points share one residual's noise. Each correspondence's target is the
+// scan smoothed over `smoothing_radius_m`, so the residuals of the alignment points within one
+// smoothing disc carry the same averaged returns: for a uniform kernel the integral of the
+// residuals' correlation over the surface is the disc's area, and the pose's variance is
+// rmse^2 H^-1 (every residual independent) times the independent points one disc holds. That
+// is the disc's area over a voxel's (one alignment point per `target_voxel_m` of surface; a
+// noisy shell several voxels thick repeats the same returns in its extra layers), but never
+// more than the alignment points actually within the radius (a coarse scan leaves voxels
+// empty). The error budget measured the found pose's error at 4.1-5.6 times the uncorrected
+// 1-sigma over every family, noise and registration kind; the factor is 22 (4.7 in sigma) at
+// the defaults on a dense scan.
+double ResidualCorrelation(const Cloud& source, const AlignConfig& config) {
+    if (config.smoothing_radius_m <= 0.0 || config.target_voxel_m <= 0.0 || source.empty()) {
+        return 1.0;
+    }
+    const double disc = kPi * config.smoothing_radius_m * config.smoothing_radius_m;
+    const double by_area = disc / (config.target_voxel_m * config.target_voxel_m);
+    const cloud::KdTree tree(source);
+    std::size_t neighbours = 0;
+    for (const Eigen::Vector3f& p : source) {
+        neighbours += tree.Radius(p, config.smoothing_radius_m).size();
+    }
+    const double by_count = static_cast<double>(neighbours) / static_cast<double>(source.size());
+    return std::max(1.0, std::min(by_area, by_count));
+}
+
 // Figures at the final pose, fine distance: fitness, rmse and the pose covariance
-// rmse^2 H^-1 over the left perturbation (rotation, translation) in the scan frame.
+// rmse^2 H^-1 over the left perturbation (rotation, translation) in the scan frame, widened by
+// the residuals' correlation.
 void Summarize(const Cloud& source, const Cloud& normals, const Target& target,
                const cloud::KdTree& tree, const AlignConfig& config, double min_cos, int threads,
                AlignResult& result) {
@@ -149,8 +177,8 @@ void Summarize(const Cloud& source, const Cloud& normals, const Target& target,
     result.fitness = static_cast<double>(sys.count) / static_cast<double>(source.size());
     if (sys.count < 6) return;
     result.rmse_m = std::sqrt(sys.sq_sum / static_cast<double>(sys.count));
-    result.covariance =
-        result.rmse_m * result.rmse_m * (sys.H + 1e-9 * Matrix6d::Identity()).inverse();
+    result.covariance = ResidualCorrelation(source, config) * result.rmse_m * result.rmse_m *
+                        (sys.H + 1e-9 * Matrix6d::Identity()).inverse();
     // Offset of the opening centre along its normal: d = n_c . (t + w x o).
     const Eigen::Vector3d o = T.translation();
     const Eigen::Vector3d nc = T.linear().col(2);

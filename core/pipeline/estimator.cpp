@@ -303,8 +303,9 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     estimate.timings.volume_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(CheckContents(estimate.volume, config));
     estimate.volume_m3 = estimate.volume.volume_m3;
-    const double align_m3 = AlignmentSigma(estimate.volume, estimate.alignment);
-    estimate.uncertainty_m3 = std::hypot(estimate.volume.uncertainty_m3, align_m3);
+    estimate.pose_uncertainty_m3 = AlignmentSigma(estimate.volume, estimate.alignment);
+    estimate.uncertainty_m3 =
+        std::hypot(estimate.volume.uncertainty_m3, estimate.pose_uncertainty_m3);
     SOILVOL_RETURN_IF_ERROR(CheckUncertainty(estimate, model, config));
     if (model.struck_capacity_m3 > 0.0) {
         estimate.fill_ratio_struck = estimate.volume_m3 / model.struck_capacity_m3;
