@@ -1,5 +1,6 @@
 #include "server/http_routes.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <set>
@@ -9,6 +10,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
 #include "core/common/status_macros.hpp"
 #include "google/api/annotations.pb.h"
@@ -91,6 +93,33 @@ const google::protobuf::FieldDescriptor* FindField(const google::protobuf::Descr
     return field != nullptr ? field : type.FindFieldByCamelcaseName(name);
 }
 
+/// Protobuf's JSON parser ends its message with a window of the input and a line with a caret
+/// under the fault ("reason.\n<input window>\n    ^"), newlines of the input included. A client
+/// reads one line: the reason, and where in the body it broke as line, column and byte.
+std::string ReadableJsonError(std::string_view json, std::string_view message) {
+    const std::size_t first = message.find('\n');
+    const std::size_t last = message.rfind('\n');
+    std::string_view reason = message.substr(0, first);
+    while (!reason.empty() && (reason.back() == '.' || reason.back() == ' ')) {
+        reason.remove_suffix(1);
+    }
+    if (first == std::string_view::npos || last <= first) return std::string(reason);
+    const std::string_view window = message.substr(first + 1, last - first - 1);
+    const std::size_t caret = message.find('^', last);
+    const std::size_t at = json.find(window);
+    if (caret == std::string_view::npos || at == std::string_view::npos) {
+        return std::string(reason);
+    }
+    const std::size_t offset = std::min(json.size(), at + (caret - last - 1));
+    const std::string_view before = json.substr(0, offset);
+    const std::size_t line_start = before.rfind('\n');
+    const std::size_t line =
+        1 + static_cast<std::size_t>(std::count(before.begin(), before.end(), '\n'));
+    const std::size_t column =
+        offset - (line_start == std::string_view::npos ? 0 : line_start + 1) + 1;
+    return absl::StrFormat("%s at line %d, column %d (byte %d)", reason, line, column, offset);
+}
+
 absl::Status ParseJsonInto(std::string_view json, google::protobuf::Message* message,
                            const std::string& what) {
     google::protobuf::util::JsonParseOptions options;
@@ -98,7 +127,8 @@ absl::Status ParseJsonInto(std::string_view json, google::protobuf::Message* mes
     const auto parsed = google::protobuf::util::JsonStringToMessage(
         google::protobuf::StringPiece(json.data(), json.size()), message, options);
     if (!parsed.ok()) {
-        return absl::InvalidArgumentError(absl::StrCat(what, ": ", std::string(parsed.message())));
+        return absl::InvalidArgumentError(
+            absl::StrCat(what, ": ", ReadableJsonError(json, std::string(parsed.message()))));
     }
     return absl::OkStatus();
 }

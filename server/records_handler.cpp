@@ -124,6 +124,8 @@ absl::StatusOr<std::function<void()>> SoilVolumeHandlers::WatchEstimates(
     EstimateFeed::Spec spec;
     if (!request.container_id().empty() && request.container_id() != "-") {
         SOILVOL_RETURN_IF_ERROR(ValidateId(request.container_id(), "container_id"));
+        // A watch of a container that does not exist would wait for ever: NOT_FOUND, as Get.
+        SOILVOL_RETURN_IF_ERROR(LoadContainer(request.container_id(), "container_id").status());
         spec.container_id = request.container_id();
     }
     if (!request.after_estimate_id().empty()) {

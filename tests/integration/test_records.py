@@ -262,6 +262,14 @@ class RecordsContract:
             bad = SseReader(other.http_port, "/v1/estimates:watch?afterEstimateId=x")
             self.assertEqual(bad.status, 400)
             bad.close()
+            unknown = SseReader(other.http_port, "/v1/estimates:watch?containerId=nobody-here")
+            self.assertEqual(unknown.status, 404)
+            unknown.close()
+        # The same over gRPC: a watch of a container that does not exist ends at once.
+        with self.assertRaises(grpc.RpcError) as ctx:
+            next(self.stub.WatchEstimates(
+                pb.WatchEstimatesRequest(container_id="nobody-here"), timeout=10))
+        self.assertEqual(ctx.exception.code(), CODE.NOT_FOUND, ctx.exception.details())
 
     def test_metrics_count_the_records_and_the_watches(self):
         store = self.store_kind()

@@ -111,6 +111,20 @@ TEST_F(BindRequestTest, JsonBodiesIgnoreUnknownFieldsAndRefuseQueryParameters) {
     EXPECT_TRUE(absl::IsInvalidArgument(status));
 }
 
+// A client reads the message: plain text naming the body and where it broke, no escapes of
+// the parser's own (protobuf quotes the input with \x0a for its newlines).
+TEST_F(BindRequestTest, MalformedJsonIsReadableText) {
+    v1::RegisterContainerRequest request;
+    const absl::Status status = Bind("RegisterContainer", "", "application/json",
+                                     "{\"containerId\": \n \"a\",\n,}", &request);
+    ASSERT_TRUE(absl::IsInvalidArgument(status));
+    const std::string message(status.message());
+    EXPECT_EQ(message.rfind("request body: ", 0), 0u) << message;
+    EXPECT_EQ(message.find("\\x"), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    EXPECT_EQ(message, "request body: Expected an object key or } at line 3, column 1 (byte 23)");
+}
+
 TEST_F(BindRequestTest, PatchBodyIsTheResourceAndItsFieldsTheMask) {
     const std::vector<HttpRoute>& routes = routes_;
     const absl::StatusOr<RouteMatch> match =
