@@ -4,7 +4,8 @@
 # the fixture of the records tests (tests/server/records/CMakeLists.txt).
 #   scripts/test-postgres.sh start DIR   initdb (first time) and start; prints the URL pattern
 #   scripts/test-postgres.sh stop DIR    stop it (fast shutdown)
-# As root the server runs as the postgres user (initdb refuses root).
+# As root the server runs as the postgres user (initdb refuses root), in a directory under /tmp
+# when that user cannot reach DIR.
 set -euo pipefail
 action="${1:?start or stop}"
 dir=$(realpath -m "${2:?directory}")
@@ -14,7 +15,15 @@ if [ -z "$bin" ]; then
     exit 1
 fi
 as=()
-if [ "$(id -u)" -eq 0 ]; then as=(runuser -u postgres --); fi
+if [ "$(id -u)" -eq 0 ]; then
+    as=(runuser -u postgres --)
+    # The postgres user must reach DIR: a clone under /root or a mode-700 directory is closed
+    # to it. Then the server lives in a directory of its own under /tmp, named after DIR (the
+    # same for start and stop), and the URL names that one.
+    if ! runuser -u postgres -- test -x "$(dirname "$dir")" 2>/dev/null; then
+        dir="/tmp/soilvol-pg-$(printf '%s' "$dir" | sha256sum | cut -c1-16)"
+    fi
+fi
 if [ ${#dir} -gt 90 ]; then
     echo "test-postgres: '$dir' is too long for a Unix socket path" >&2
     exit 1
@@ -23,7 +32,7 @@ fi
 case "$action" in
     start)
         mkdir -p "$dir"
-        if [ ${#as[@]} -gt 0 ]; then chown postgres "$dir"; fi
+        if [ ${#as[@]} -gt 0 ]; then chown postgres "$dir" && chmod 700 "$dir"; fi
         if [ -f "$dir/data/postmaster.pid" ]; then
             "${as[@]}" "$bin/pg_ctl" -D "$dir/data" -m immediate stop >/dev/null 2>&1 || true
         fi
