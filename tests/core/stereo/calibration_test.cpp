@@ -48,7 +48,7 @@ class SamplePairsTest : public ::testing::Test {
         if (!pairs_.empty()) result_ = CalibrateFromChessboards(pairs_, kBoard);
     }
     void SetUp() override {
-        if (pairs_.empty()) GTEST_SKIP() << "opencv-doc sample pairs not installed";
+        SOILVOL_NEED_SAMPLES(pairs_.empty(), "opencv-doc sample pairs");
         ASSERT_TRUE(result_->ok()) << result_->status();
     }
     const StereoCalibration& Calibration() const { return **result_; }

@@ -23,7 +23,7 @@ cv::Mat SampleImage(const std::string& name) {
 
 TEST(DetectChessboardTest, LargeImagesAreDetectedOnACopyAndRefinedAtFullSize) {
     const cv::Mat image = SampleImage("left01.jpg");
-    if (image.empty()) GTEST_SKIP() << "opencv-doc sample images not installed";
+    SOILVOL_NEED_SAMPLES(image.empty(), "opencv-doc sample images");
     const auto corners = DetectChessboard(image, kPattern);
     ASSERT_TRUE(corners.has_value());
     ASSERT_EQ(corners->size(), 54u);
@@ -43,7 +43,7 @@ TEST(DetectChessboardTest, LargeImagesAreDetectedOnACopyAndRefinedAtFullSize) {
 
 TEST(DetectChessboardTest, BoardFreeImagesAreRejectedQuickly) {
     const cv::Mat image = SampleImage("baboon.jpg");
-    if (image.empty()) GTEST_SKIP() << "opencv-doc sample images not installed";
+    SOILVOL_NEED_SAMPLES(image.empty(), "opencv-doc sample images");
     const auto start = std::chrono::steady_clock::now();
     EXPECT_FALSE(DetectChessboard(image, kPattern).has_value());
     EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 0.5);
