@@ -294,14 +294,20 @@ std::optional<HttpResponse> HttpGateway::Admit(const HttpRequest& head) const {
         return ErrorResponse(match.status(), origin,
                              absl::IsUnimplemented(match.status()) ? 405 : 0);
     }
-    if (HasBody(head) && !BodyAccepted(*match->route, head.headers.Get("Content-Type"))) {
-        return ErrorResponse(absl::InvalidArgumentError(
-                                 match->route->body == "*"
-                                     ? "Content-Type: send application/json, "
-                                       "application/octet-stream (a cloud file) or "
-                                       "multipart/form-data (with a boundary)"
-                                     : "Content-Type: request bodies must be application/json"),
-                             origin, 415);
+    const std::string& content_type = head.headers.Get("Content-Type");
+    if (HasBody(head) && !BodyAccepted(*match->route, content_type)) {
+        return ErrorResponse(
+            absl::InvalidArgumentError(absl::StrCat(
+                match->route->body == "*" ? "Content-Type: send application/json, "
+                                            "application/octet-stream (a cloud file) or "
+                                            "multipart/form-data (with a boundary)"
+                                          : "Content-Type: request bodies must be application/json",
+                "; got '", content_type, "'",
+                absl::StartsWithIgnoreCase(content_type, "application/x-www-form-urlencoded")
+                    ? " (curl -d sends it: add -H 'Content-Type: "
+                      "application/json')"
+                    : "")),
+            origin, 415);
     }
     const std::string& encoding = head.headers.Get("Content-Encoding");
     if (!encoding.empty() && !absl::EqualsIgnoreCase(encoding, "identity")) {

@@ -443,7 +443,8 @@ absl::StatusOr<std::vector<std::pair<std::string, std::string>>> ParseQuery(
 BodyKind BodyKindOf(std::string_view content_type) {
     const absl::string_view type =
         absl::StripAsciiWhitespace(AbslView(content_type.substr(0, content_type.find(';'))));
-    if (absl::EqualsIgnoreCase(type, "application/json")) return BodyKind::kJson;
+    // A body without a type is JSON, as grpc-gateway's default marshaler reads it.
+    if (type.empty() || absl::EqualsIgnoreCase(type, "application/json")) return BodyKind::kJson;
     if (absl::EqualsIgnoreCase(type, "application/octet-stream")) return BodyKind::kBinary;
     if (absl::EqualsIgnoreCase(type, "multipart/form-data")) return BodyKind::kMultipart;
     return BodyKind::kOther;

@@ -115,6 +115,8 @@ class Uploads(unittest.TestCase):
             ("text/plain", 415, "Content-Type",
              ["/v1/containers/upload-bad:estimate", "--data-binary", f"@{scan}",
               "-H", "Content-Type: text/plain"]),
+            ("a form body (curl -d's default type)", 415, "curl -d",
+             ["/v1/containers/upload-bad", "-X", "PATCH", "-d", '{"displayName": "x"}']),
             ("truncated multipart", 400, "multipart body",
              ["/v1/containers/upload-bad:estimate", "--data-binary",
               "--XyZ\r\nContent-Disposition: form-data; name=\"cloud\"\r\n\r\nply",
@@ -125,6 +127,11 @@ class Uploads(unittest.TestCase):
                 status, err = self.curl(*args)
                 self.assertEqual(status, code, f"{name}: {err}")
                 self.assertIn(fragment, err["message"], name)
+        # A body without a Content-Type is JSON (grpc-gateway's default).
+        status, patched = self.curl("/v1/containers/upload-bad", "-X", "PATCH",
+                                    "-H", "Content-Type:", "-d", '{"displayName": "Untyped"}')
+        self.assertEqual(status, 200, patched)
+        self.assertEqual(patched["displayName"], "Untyped")
         self.assertEqual(self.curl("/healthz")[0], 200)
 
 
