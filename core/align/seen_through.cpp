@@ -43,7 +43,7 @@ SeenThrough SeenThroughShare(const Cloud& model_in_scan, const Cloud& scan, doub
     const double tolerance = config.spacings * Median(gaps);
     const double margin = std::max(config.min_margin_m, config.margin_sigmas * noise_sigma_m);
     for (const auto& p : model_in_scan) {
-        const double r = p.norm();
+        const double r = static_cast<double>(p.norm());
         if (!(r > 0.0)) continue;
         const auto near = tree.Radius((p / static_cast<float>(r)), tolerance);
         if (near.empty()) continue;

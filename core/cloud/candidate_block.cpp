@@ -51,7 +51,9 @@ Moments CandidateBlock::Within(const Eigen::Vector3f& p, float radius2) const {
     m.count = static_cast<int>(count);
     m.weight = static_cast<double>(total);
     m.sum = Eigen::Vector3f(sx, sy, sz).cast<double>();
-    m.outer << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
+    Eigen::Matrix3f outer;
+    outer << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
+    m.outer = outer.cast<double>();
     return m;
 }
 

@@ -39,7 +39,7 @@ void RadixSort(std::vector<std::pair<uint64_t, uint32_t>>& keyed, int bits) {
 }  // namespace
 
 VoxelGrid::VoxelGrid(const Cloud& points, double voxel_size_m)
-    : points_(points), voxel_size_m_(voxel_size_m), origin_(Eigen::Vector3d::Zero()) {
+    : voxel_size_m_(voxel_size_m), origin_(Eigen::Vector3d::Zero()) {
     if (points.empty()) {
         starts_.push_back(0);
         return;

@@ -43,7 +43,6 @@ class VoxelGrid {
     uint64_t Pack(const Eigen::Vector3i& c) const;
     bool InRange(const Eigen::Vector3i& c) const;
 
-    const Cloud& points_;
     double voxel_size_m_;
     Eigen::Vector3d origin_;
     Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();  // voxels along each axis

@@ -40,7 +40,8 @@ std::vector<Sample> BandSamples(const DisparityMap& disparity,
             for (int u = u0; u <= u1; ++u) {
                 const float d = disparity.At(u, v);
                 if (!(d > 0.0f) || SegmentDistance({u, v}, a, b) > band_px) continue;
-                samples.push_back({static_cast<double>(u), static_cast<double>(v), d});
+                samples.push_back(
+                    {static_cast<double>(u), static_cast<double>(v), static_cast<double>(d)});
             }
         }
     }

@@ -179,7 +179,7 @@ absl::StatusOr<StereoCloud> StereoReconstructor::Reconstruct(const GreyImage& le
         for (int u = 0; u < cloud.disparity.width; u += cloud.stride) {
             const float d = cloud.disparity.At(u, v);
             if (!(d > 0.0f) || edges.at<uint8_t>(v, u) != 0) continue;
-            const Eigen::Vector3d point = Reproject(u, v, d);
+            const Eigen::Vector3d point = Reproject(u, v, static_cast<double>(d));
             const double range2 = point.squaredNorm();
             if (!std::isfinite(range2) || range2 < min2 || range2 > max2) continue;
             cloud.points.push_back(point.cast<float>());

@@ -25,7 +25,7 @@ Cloud Patch(const Eigen::Vector3d& centre, const Eigen::Vector3d& u, const Eigen
 
 double MedianWeight(std::vector<float> w) {
     std::nth_element(w.begin(), w.begin() + static_cast<long>(w.size() / 2), w.end());
-    return w[w.size() / 2];
+    return static_cast<double>(w[w.size() / 2]);
 }
 
 const Eigen::Vector3d kX = Eigen::Vector3d::UnitX(), kY = Eigen::Vector3d::UnitY(),
