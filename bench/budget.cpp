@@ -31,7 +31,7 @@ struct Split {
     bool refused = false;
     double total = 0.0;  // the product's answer (clipped at 0) minus the truth
     double pose = 0.0, empty = 0.0, soil = 0.0, grid = 0.0;
-    double sigma = 0.0;  // the product's 1-sigma
+    double sigma = 0.0;       // the product's 1-sigma
     double pose_sigma = 0.0;  // its part from the pose covariance
     double height_mm = 0.0, tilt_deg = 0.0;
     // At the true pose, the empty and scan surfaces' errors [% of struck] over the cells whose
@@ -235,11 +235,12 @@ void KvLine(std::ostream& kv, const std::string& family, int scans, int seed, do
             double noise, const Split& s) {
     kv << absl::StrFormat(
         "budget family=%s scans=%d seed=%d fill=%.2f noise_m=%.3f refused=%d total=%.3f "
-        "pose=%.3f empty=%.3f soil=%.3f grid=%.3f sigma=%.3f pose_sigma=%.3f height_mm=%.2f tilt_deg=%.3f "
+        "pose=%.3f empty=%.3f soil=%.3f grid=%.3f sigma=%.3f pose_sigma=%.3f height_mm=%.2f "
+        "tilt_deg=%.3f "
         "empty_wall=%.3f empty_flat=%.3f scan_wall=%.3f scan_flat=%.3f\n",
         family, scans, seed, fill, noise, s.refused ? 1 : 0, s.total, s.pose, s.empty, s.soil,
-        s.grid, s.sigma, s.pose_sigma, s.height_mm, s.tilt_deg, s.empty_wall, s.empty_flat, s.scan_wall,
-        s.scan_flat);
+        s.grid, s.sigma, s.pose_sigma, s.height_mm, s.tilt_deg, s.empty_wall, s.empty_flat,
+        s.scan_wall, s.scan_flat);
 }
 
 constexpr const char* kHeader =

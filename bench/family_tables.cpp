@@ -203,17 +203,17 @@ std::string MovesTable(int seeds, std::ostream& kv) {
                             count.worst_wrong_pct =
                                 std::max(count.worst_wrong_pct, std::abs(err_pct));
                         }
-                        const pipeline::PoseDifference off = pipeline::DifferenceOf(
-                            scene.T_scan_container * reg.sim_to_model,
-                            e->alignment.T_scan_container);
+                        const pipeline::PoseDifference off =
+                            pipeline::DifferenceOf(scene.T_scan_container * reg.sim_to_model,
+                                                   e->alignment.T_scan_container);
                         outcome = absl::StrFormat(
                             "err_pct_struck=%.2f sigma_pct=%.2f scan_observed=%.2f fitness=%.2f "
                             "pose_sigma_m=%.4f below=%d both=%d through=%.3f pose_off_m=%.3f "
                             "pose_off_deg=%.2f",
                             err_pct, sigma_pct, e->volume.scan_observed_share, e->alignment.fitness,
                             e->alignment.z_sigma_m, e->volume.cells.below_empty,
-                            e->volume.cells.both_measured, e->seen_through.Share(),
-                            off.distance_m, off.rotation_deg);
+                            e->volume.cells.both_measured, e->seen_through.Share(), off.distance_m,
+                            off.rotation_deg);
                     }
                     kv << "moves family=" << sim::FamilyName(family) << " seed=" << seed
                        << " move=\"" << move.name << "\" initial_pose=" << with_pose << " "

@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "absl/strings/str_format.h"
-#include "core/common/angles.hpp"
 #include "core/cloud/kd_tree.hpp"
 #include "core/cloud/local_surface.hpp"
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/angles.hpp"
 
 namespace soilvol::align {
 namespace {

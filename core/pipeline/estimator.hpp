@@ -86,11 +86,11 @@ absl::Status SetKinematicAccuracy(double position_sigma_m, double orientation_si
 
 struct VolumeEstimate {
     double volume_m3 = 0.0;
-    double uncertainty_m3 = 0.0;     ///< 1-sigma: per-cell statistics and alignment
+    double uncertainty_m3 = 0.0;       ///< 1-sigma: per-cell statistics and alignment
     double pose_uncertainty_m3 = 0.0;  ///< its part from the alignment's pose covariance
-    double fill_ratio_struck = 0.0;  ///< volume / struck capacity
-    double fill_ratio_heaped = 0.0;  ///< volume / heaped capacity (SAE J296)
-    volume::VolumeResult volume;     ///< grid, per-cell heights and counts
+    double fill_ratio_struck = 0.0;    ///< volume / struck capacity
+    double fill_ratio_heaped = 0.0;    ///< volume / heaped capacity (SAE J296)
+    volume::VolumeResult volume;       ///< grid, per-cell heights and counts
     align::AlignResult alignment;
     align::SeenThrough seen_through;  ///< the model's outside the scan's rays passed through
     StageTimings timings;

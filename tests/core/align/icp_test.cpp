@@ -87,8 +87,9 @@ TEST(IcpTest, CovarianceIsSmallForAShapeThatPinsThePoseAndLargeForAPlane) {
 }
 
 // The reported 1-sigma must describe how far found poses scatter over noise draws (of the
-// empty scan the model came from and of the filled one): with the scan smoothed over 8 cm and one alignment point per 3 cm voxel, neighbouring residuals share
-// their returns, and a covariance that took them as independent was 4-5 times too narrow.
+// empty scan the model came from and of the filled one): with the scan smoothed over 8 cm and one
+// alignment point per 3 cm voxel, neighbouring residuals share their returns, and a covariance that
+// took them as independent was 4-5 times too narrow.
 TEST(IcpTest, ReportedSigmaMatchesTheScatterOfFoundPoses) {
     const Cloud object = Object();
     constexpr int kDraws = 24;
