@@ -6,7 +6,7 @@
 #include "core/sim/stereo_renderer.hpp"
 #include "core/sim/tof_sensor.hpp"
 #include "core/stereo/image_codec.hpp"
-#include "server/proto_convert.hpp"
+#include "proto/convert/proto_convert.hpp"
 
 namespace soilvol::client {
 namespace {

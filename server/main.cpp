@@ -10,8 +10,8 @@
 #include "CLI/CLI.hpp"
 #include "core/common/build_info.hpp"
 #include "core/stereo/calibration.hpp"
-#include "server/cpu_budget.hpp"
-#include "server/logging.hpp"
+#include "server/base/logging.hpp"
+#include "server/dispatch/cpu_budget.hpp"
 #include "server/options.hpp"
 #include "server/server.hpp"
 

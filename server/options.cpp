@@ -7,7 +7,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "server/cpu_budget.hpp"
+#include "server/dispatch/cpu_budget.hpp"
 
 namespace soilvol::server {
 namespace {

@@ -2,7 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/checksum.hpp"
-#include "server/store/absl_view.hpp"
+#include "server/base/absl_view.hpp"
 
 namespace soilvol::server {
 namespace {

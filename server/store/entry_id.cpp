@@ -4,7 +4,7 @@
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
-#include "server/store/absl_view.hpp"
+#include "server/base/absl_view.hpp"
 
 namespace soilvol::server {
 namespace {

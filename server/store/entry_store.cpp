@@ -12,9 +12,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "core/common/status_macros.hpp"
-#include "server/store/absl_view.hpp"
+#include "server/base/absl_view.hpp"
+#include "server/base/posix_io.hpp"
 #include "server/store/entry_id.hpp"
-#include "server/store/posix_io.hpp"
 #include "server/store/temp_file.hpp"
 
 namespace soilvol::server {

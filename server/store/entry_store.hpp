@@ -11,8 +11,8 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/base/posix_io.hpp"
 #include "server/store/entry_file.hpp"
-#include "server/store/posix_io.hpp"
 
 namespace soilvol::server {
 

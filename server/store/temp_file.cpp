@@ -12,7 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/strip.h"
-#include "server/store/absl_view.hpp"
+#include "server/base/absl_view.hpp"
 #include "server/store/entry_id.hpp"
 
 namespace soilvol::server {

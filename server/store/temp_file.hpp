@@ -6,7 +6,7 @@
 #include <string_view>
 
 #include "absl/status/statusor.h"
-#include "server/store/posix_io.hpp"
+#include "server/base/posix_io.hpp"
 
 namespace soilvol::server {
 

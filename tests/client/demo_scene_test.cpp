@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "core/io/mesh_codec.hpp"
-#include "server/proto_convert.hpp"
+#include "proto/convert/proto_convert.hpp"
 
 namespace soilvol::client {
 namespace {

@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <string_view>
 
-#include "server/proto_convert.hpp"
-#include "server/stored_record.hpp"
+#include "proto/convert/proto_convert.hpp"
+#include "server/handlers/stored_record.hpp"
 #include "soilvol/v1/soilvol.pb.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

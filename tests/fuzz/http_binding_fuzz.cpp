@@ -10,7 +10,11 @@
 #include <string_view>
 
 #include "google/protobuf/message.h"
-#include "server/http_routes.hpp"
+#include "server/http/grpc_timeout.hpp"
+#include "server/http/http_routes.hpp"
+#include "server/http/json_input.hpp"
+#include "server/http/query_string.hpp"
+#include "server/http/request_binding.hpp"
 #include "soilvol/v1/soilvol.pb.h"
 
 namespace {

@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-#include "server/multipart.hpp"
+#include "server/http/multipart.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::string_view body(reinterpret_cast<const char*>(data), size);

@@ -8,8 +8,8 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
-#include "server/resource_rules.hpp"
-#include "server/status_map.hpp"
+#include "server/base/status_map.hpp"
+#include "server/handlers/resource_rules.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     namespace s = soilvol::server;

@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-#include "server/token_file.hpp"
+#include "server/auth/token_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::string_view text(reinterpret_cast<const char*>(data), size);

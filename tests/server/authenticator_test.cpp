@@ -1,4 +1,4 @@
-#include "server/authenticator.hpp"
+#include "server/auth/authenticator.hpp"
 
 #include <gtest/gtest.h>
 

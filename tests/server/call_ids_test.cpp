@@ -1,4 +1,4 @@
-#include "server/call_ids.hpp"
+#include "server/base/call_ids.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "server/cpu_budget.hpp"
+#include "server/dispatch/cpu_budget.hpp"
 
 #include <gtest/gtest.h>
 #include <sched.h>

@@ -1,4 +1,4 @@
-#include "server/dispatcher.hpp"
+#include "server/dispatch/dispatcher.hpp"
 
 #include <gtest/gtest.h>
 

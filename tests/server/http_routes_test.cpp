@@ -1,4 +1,4 @@
-#include "server/http_routes.hpp"
+#include "server/http/http_routes.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "server/http_gateway.hpp"
+#include "server/http/grpc_timeout.hpp"
+#include "server/http/http_gateway.hpp"
+#include "server/http/json_input.hpp"
+#include "server/http/query_string.hpp"
+#include "server/http/request_binding.hpp"
 #include "soilvol/v1/soilvol.pb.h"
 
 namespace soilvol::server {

@@ -1,4 +1,4 @@
-#include "server/http_server.hpp"
+#include "server/http/http_server.hpp"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>

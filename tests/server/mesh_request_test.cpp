@@ -1,11 +1,11 @@
-#include "server/mesh_request.hpp"
+#include "server/handlers/mesh_request.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
 
-#include "server/status_map.hpp"
+#include "server/base/status_map.hpp"
 
 namespace soilvol::server {
 namespace {

@@ -1,4 +1,4 @@
-#include "server/multipart.hpp"
+#include "server/http/multipart.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "server/proto_convert.hpp"
+#include "proto/convert/proto_convert.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "server/resource_rules.hpp"
+#include "server/handlers/resource_rules.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "absl/strings/escaping.h"
-#include "server/status_map.hpp"
+#include "server/base/status_map.hpp"
 
 namespace soilvol::server {
 namespace {

@@ -1,4 +1,4 @@
-#include "server/rpc_table.hpp"
+#include "server/handlers/rpc_table.hpp"
 
 #include <gtest/gtest.h>
 

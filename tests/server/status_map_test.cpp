@@ -1,4 +1,4 @@
-#include "server/status_map.hpp"
+#include "server/base/status_map.hpp"
 
 #include <gtest/gtest.h>
 

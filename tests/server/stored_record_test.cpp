@@ -1,4 +1,4 @@
-#include "server/stored_record.hpp"
+#include "server/handlers/stored_record.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "server/token_file.hpp"
+#include "server/auth/token_file.hpp"
 
 #include <gtest/gtest.h>
 

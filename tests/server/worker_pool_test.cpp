@@ -1,4 +1,4 @@
-#include "server/worker_pool.hpp"
+#include "server/dispatch/worker_pool.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "server/store/posix_io.hpp"
+#include "server/base/posix_io.hpp"
 
 #include <gtest/gtest.h>
 

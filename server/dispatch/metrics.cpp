@@ -1,0 +1,148 @@
+#include "server/dispatch/metrics.hpp"
+
+#include <algorithm>
+#include <mutex>
+
+#include "core/common/build_info.hpp"
+#include "prometheus/counter.h"
+#include "prometheus/gauge.h"
+#include "prometheus/histogram.h"
+#include "prometheus/registry.h"
+#include "prometheus/text_serializer.h"
+#include "server/base/status_map.hpp"
+
+namespace soilvol::server {
+namespace {
+
+// 1 ms to ~65 s, doubling.
+prometheus::Histogram::BucketBoundaries LatencyBuckets() {
+    prometheus::Histogram::BucketBoundaries buckets;
+    for (double b = 0.001; b < 70.0; b *= 2.0) buckets.push_back(b);
+    return buckets;
+}
+
+}  // namespace
+
+struct Metrics::Impl {
+    std::shared_ptr<prometheus::Registry> registry = std::make_shared<prometheus::Registry>();
+    prometheus::Family<prometheus::Counter>& requests =
+        prometheus::BuildCounter()
+            .Name("soilvol_requests_total")
+            .Help("Requests answered, by RPC, gRPC status code and transport")
+            .Register(*registry);
+    prometheus::Family<prometheus::Histogram>& latency =
+        prometheus::BuildHistogram()
+            .Name("soilvol_request_duration_seconds")
+            .Help("Time from a request's arrival to its answer, by RPC")
+            .Register(*registry);
+    prometheus::Family<prometheus::Histogram>& stages =
+        prometheus::BuildHistogram()
+            .Name("soilvol_stage_duration_seconds")
+            .Help("Time per pipeline stage of calibrations, registrations and estimates")
+            .Register(*registry);
+    prometheus::Gauge& in_flight = MakeGauge("soilvol_in_flight", "Requests running on a worker");
+    prometheus::Gauge& queue_depth =
+        MakeGauge("soilvol_queue_depth", "Requests waiting for a worker");
+    prometheus::Gauge& workers = MakeGauge("soilvol_workers", "Engine worker threads");
+    prometheus::Gauge& max_queue =
+        MakeGauge("soilvol_max_queue", "Requests that may wait for a worker before refusals");
+
+    prometheus::Gauge& build_info = prometheus::BuildGauge()
+                                        .Name("soilvol_build_info")
+                                        .Help("1, labelled with the server's version and build")
+                                        .Register(*registry)
+                                        .Add({{"version", GetBuildInfo().version},
+                                              {"revision", GetBuildInfo().revision},
+                                              {"build_type", GetBuildInfo().build_type}});
+
+    std::function<Metrics::RecordFigures()> records_probe;
+    std::mutex records_mutex;             // one scrape at a time moves the counters
+    Metrics::RecordFigures records_seen;  // what the counters hold
+    prometheus::Counter* records_written = nullptr;
+    prometheus::Counter* record_batches = nullptr;
+    prometheus::Counter* record_failures = nullptr;
+    prometheus::Counter* records_pruned = nullptr;
+    prometheus::Gauge* records_queued = nullptr;
+    prometheus::Gauge* watches = nullptr;
+
+    prometheus::Counter& MakeCounter(const std::string& name, const std::string& help,
+                                     const std::string& store) {
+        return prometheus::BuildCounter().Name(name).Help(help).Register(*registry).Add(
+            {{"store", store}});
+    }
+
+    /// The counters moved up to what the probe reports now (counters only grow).
+    void ReadRecords() {
+        if (!records_probe) return;
+        const Metrics::RecordFigures now = records_probe();
+        std::lock_guard<std::mutex> lock(records_mutex);
+        const auto advance = [](prometheus::Counter* counter, std::uint64_t& seen,
+                                std::uint64_t value) {
+            if (value > seen) counter->Increment(static_cast<double>(value - seen));
+            seen = std::max(seen, value);
+        };
+        advance(records_written, records_seen.written, now.written);
+        advance(record_batches, records_seen.batches, now.batches);
+        advance(record_failures, records_seen.failures, now.failures);
+        advance(records_pruned, records_seen.pruned, now.pruned);
+        records_queued->Set(static_cast<double>(now.queued));
+        watches->Set(static_cast<double>(now.watches));
+    }
+
+    prometheus::Gauge& MakeGauge(const std::string& name, const std::string& help) {
+        return prometheus::BuildGauge().Name(name).Help(help).Register(*registry).Add({});
+    }
+};
+
+Metrics::Metrics() : impl_(std::make_unique<Impl>()) { impl_->build_info.Set(1.0); }
+
+Metrics::~Metrics() = default;
+
+void Metrics::RecordRequest(std::string_view method, std::string_view transport,
+                            absl::StatusCode code, double seconds) {
+    impl_->requests
+        .Add({{"method", std::string(method)},
+              {"code", std::string(CodeName(code))},
+              {"transport", std::string(transport)}})
+        .Increment();
+    impl_->latency.Add({{"method", std::string(method)}}, LatencyBuckets()).Observe(seconds);
+}
+
+void Metrics::RecordStage(std::string_view stage, double seconds) {
+    impl_->stages.Add({{"stage", std::string(stage)}}, LatencyBuckets()).Observe(seconds);
+}
+
+void Metrics::SetLoad(double in_flight, double queued) {
+    impl_->in_flight.Set(in_flight);
+    impl_->queue_depth.Set(queued);
+}
+
+void Metrics::SetWorkers(int workers, int max_queue) {
+    impl_->workers.Set(workers);
+    impl_->max_queue.Set(max_queue);
+}
+
+void Metrics::SetRecordsProbe(std::string store, std::function<RecordFigures()> probe) {
+    Impl& m = *impl_;
+    m.records_written = &m.MakeCounter("soilvol_records_written_total",
+                                       "Estimate records committed by this server", store);
+    m.record_batches = &m.MakeCounter("soilvol_record_batches_total",
+                                      "Transactions that committed estimate records", store);
+    m.record_failures =
+        &m.MakeCounter("soilvol_record_failures_total",
+                       "Estimate records the store refused (their estimates were refused)", store);
+    m.records_pruned = &m.MakeCounter("soilvol_records_pruned_total",
+                                      "Estimate records removed by the retention policy", store);
+    m.records_queued =
+        &m.MakeGauge("soilvol_records_queued", "Estimate records waiting for their commit");
+    m.watches = &m.MakeGauge("soilvol_estimate_watches",
+                             "Open WatchEstimates calls and Server-Sent Event streams");
+    m.records_probe = std::move(probe);
+}
+
+std::string Metrics::Serialize() const {
+    impl_->ReadRecords();
+    return prometheus::TextSerializer().Serialize(impl_->registry->Collect());
+}
+
+}  // namespace soilvol::server

@@ -1,0 +1,148 @@
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.hpp"
+#include "google/protobuf/util/time_util.h"
+#include "proto/convert/proto_convert.hpp"
+#include "server/base/status_map.hpp"
+#include "server/handlers/resource_rules.hpp"
+#include "server/handlers/soilvol_handlers.hpp"
+#include "server/store/entry_id.hpp"
+
+namespace soilvol::server {
+namespace {
+
+using google::protobuf::util::TimeUtil;
+
+/// The API message of a stored record, its heightmap left out for the BASIC view.
+absl::Status FromRecord(const EstimateRecord& row, bool full, v1::Estimate* out) {
+    if (!out->ParseFromString(row.payload)) {
+        return absl::DataLossError(
+            absl::StrCat("estimate ", row.id, ": the stored record does not parse"));
+    }
+    out->set_estimate_id(absl::StrCat(row.id));
+    out->mutable_result()->set_estimate_id(out->estimate_id());
+    if (!full) out->mutable_result()->clear_heightmap();
+    return absl::OkStatus();
+}
+
+/// Microseconds since the epoch of a request's time bound, refusing what TimeUtil would not.
+absl::StatusOr<std::int64_t> MicrosOf(const google::protobuf::Timestamp& time, const char* field) {
+    // The range of RFC 3339 (years 1..9999), as google.protobuf.Timestamp defines it.
+    constexpr std::int64_t kMinSeconds = -62135596800, kMaxSeconds = 253402300799;
+    if (time.seconds() < kMinSeconds || time.seconds() > kMaxSeconds || time.nanos() < 0 ||
+        time.nanos() > 999999999) {
+        return absl::InvalidArgumentError(absl::StrCat(field, ": not a valid timestamp"));
+    }
+    return TimeUtil::TimestampToMicroseconds(time);
+}
+
+}  // namespace
+
+absl::StatusOr<EstimateRecorder*> SoilVolumeHandlers::Recorder() const {
+    if (recorder_ == nullptr) {
+        return absl::FailedPreconditionError("records are off on this server (--records-url none)");
+    }
+    return recorder_;
+}
+
+void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request,
+                                        v1::EstimateVolumeResponse* response, CallRecord& record) {
+    if (!Records(request)) return;
+    v1::Estimate kept;
+    *kept.mutable_create_time() = NowTimestamp();
+    kept.set_container_id(request.container_id());
+    kept.set_request_id(request.request_id());
+    *kept.mutable_result() = *response;
+    EstimateRecord row;
+    row.container_id = request.container_id();
+    row.create_time_us = TimeUtil::TimestampToMicroseconds(kept.create_time());
+    row.request_id = request.request_id();
+    row.payload = kept.SerializeAsString();
+    // The dispatcher hands the completion over once the handler returned, so the response
+    // is no longer written on the worker when the commit sets its id.
+    record.finish_later = [recorder = recorder_, row = std::move(row),
+                           answer = response](std::function<void(absl::Status)> finish) mutable {
+        recorder->RecordAsync(
+            std::move(row), [answer, finish = std::move(finish)](absl::StatusOr<std::int64_t> id) {
+                if (!id.ok()) {
+                    finish(absl::UnavailableError(absl::StrCat(
+                        "the estimate could not be recorded (retry, or set skip_record): ",
+                        id.status().message())));
+                    return;
+                }
+                answer->set_estimate_id(absl::StrCat(*id));
+                finish(absl::OkStatus());
+            });
+    };
+}
+
+absl::Status SoilVolumeHandlers::GetEstimate(const v1::GetEstimateRequest& request,
+                                             v1::Estimate* response, CallRecord& record) {
+    record.ids.push_back({"container", request.container_id()});
+    SOILVOL_ASSIGN_OR_RETURN(EstimateRecorder * recorder, Recorder());
+    SOILVOL_RETURN_IF_ERROR(ValidateId(request.container_id(), "container_id"));
+    SOILVOL_ASSIGN_OR_RETURN(const std::int64_t id,
+                             ParseRecordId(request.estimate_id(), "estimate_id"));
+    const absl::StatusOr<EstimateRecord> row = recorder->store().Get(request.container_id(), id);
+    if (!row.ok()) return Annotate(row.status(), "estimate_id");
+    return FromRecord(*row, request.view() != v1::ESTIMATE_VIEW_BASIC, response);
+}
+
+absl::Status SoilVolumeHandlers::ListEstimates(const v1::ListEstimatesRequest& request,
+                                               v1::ListEstimatesResponse* response, CallRecord&) {
+    SOILVOL_ASSIGN_OR_RETURN(EstimateRecorder * recorder, Recorder());
+    RecordQuery query;
+    if (request.container_id() != "-") {
+        SOILVOL_RETURN_IF_ERROR(ValidateId(request.container_id(), "container_id"));
+        query.container_id = request.container_id();
+    }
+    SOILVOL_ASSIGN_OR_RETURN(const int size, PageSizeOf(request.page_size()));
+    SOILVOL_ASSIGN_OR_RETURN(query.before_id, ParseRecordPageToken(request.page_token()));
+    if (request.has_start_time()) {
+        SOILVOL_ASSIGN_OR_RETURN(query.start_time_us, MicrosOf(request.start_time(), "start_time"));
+    }
+    if (request.has_end_time()) {
+        SOILVOL_ASSIGN_OR_RETURN(query.end_time_us, MicrosOf(request.end_time(), "end_time"));
+    }
+    if (query.end_time_us <= query.start_time_us) {
+        return absl::InvalidArgumentError("end_time: must be after start_time");
+    }
+    query.limit = size + 1;  // one more tells whether there is a next page
+    SOILVOL_ASSIGN_OR_RETURN(std::vector<EstimateRecord> rows, recorder->store().List(query));
+    const bool more = rows.size() > static_cast<std::size_t>(size);
+    if (more) rows.resize(static_cast<std::size_t>(size));
+    for (const EstimateRecord& row : rows) {
+        SOILVOL_RETURN_IF_ERROR(
+            FromRecord(row, request.view() == v1::ESTIMATE_VIEW_FULL, response->add_estimates()));
+    }
+    if (more && !rows.empty()) response->set_next_page_token(RecordPageToken(rows.back().id));
+    return absl::OkStatus();
+}
+
+absl::StatusOr<std::function<void()>> SoilVolumeHandlers::WatchEstimates(
+    const v1::WatchEstimatesRequest& request, WatchDeliver deliver, WatchEnded ended) {
+    SOILVOL_RETURN_IF_ERROR(Recorder().status());
+    EstimateFeed::Spec spec;
+    if (!request.container_id().empty() && request.container_id() != "-") {
+        SOILVOL_RETURN_IF_ERROR(ValidateId(request.container_id(), "container_id"));
+        // A watch of a container that does not exist would wait for ever: NOT_FOUND, as Get.
+        SOILVOL_RETURN_IF_ERROR(LoadContainer(request.container_id(), "container_id").status());
+        spec.container_id = request.container_id();
+    }
+    if (!request.after_estimate_id().empty()) {
+        SOILVOL_ASSIGN_OR_RETURN(spec.after_id,
+                                 ParseRecordId(request.after_estimate_id(), "after_estimate_id"));
+    }
+    const bool full = request.view() == v1::ESTIMATE_VIEW_FULL;
+    auto converted = [deliver = std::move(deliver), full](const EstimateRecord* row) {
+        if (row == nullptr) return deliver(nullptr);
+        v1::Estimate estimate;
+        // A record that does not parse is skipped: the watch goes on.
+        return !FromRecord(*row, full, &estimate).ok() || deliver(&estimate);
+    };
+    SOILVOL_ASSIGN_OR_RETURN(std::shared_ptr<EstimateFeed::Watch> watch,
+                             feed_->Start(std::move(spec), std::move(converted), std::move(ended)));
+    EstimateFeed* feed = feed_;
+    return std::function<void()>([feed, watch] { feed->Stop(watch); });
+}
+
+}  // namespace soilvol::server
