@@ -36,5 +36,6 @@ step "Dockerfile (dockerfile-utils lint)" "$bin/dockerfile-utils" lint docker/Do
 step "compose (dclint)" "$bin/dclint" --disable-rule no-build-and-image --max-warnings 0 \
     docker/compose.yaml
 step "Kubernetes manifests" env SOILVOL_TOOLS_DIR="$tools_dir" tests/ship/check-deploy.sh
+step "function size (server/)" scripts/check-function-size.sh server
 step "API (buf lint, buf breaking)" env SOILVOL_TOOLS_DIR="$tools_dir" scripts/check-proto.sh
 echo "check-static: all passed"

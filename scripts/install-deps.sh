@@ -15,7 +15,7 @@ packages=(
     golang-github-gogo-googleapis-dev golang-grpc-gateway
     python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
-    clang-format shellcheck yamllint
+    clang-format shellcheck yamllint universal-ctags
 )
 for group in "$@"; do
     case "$group" in

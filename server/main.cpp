@@ -20,8 +20,8 @@ namespace {
 using soilvol::server::LogEvent;
 using soilvol::server::LogLevel;
 
-soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) {
-    soilvol::server::ServerOptions o;
+/// Addresses, the data directory and the records.
+void AddStorageFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
     app.add_option("--grpc-address", o.grpc_address,
                    "gRPC listen address (host:port, port 0 = any)")
         ->envname("SOILVOL_GRPC_ADDRESS")
@@ -44,6 +44,10 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
                    "Records older than this are removed")
         ->envname("SOILVOL_RECORDS_MAX_AGE_DAYS")
         ->capture_default_str();
+}
+
+/// The worker pool, request sizes and registration warnings.
+void AddEngineFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
     app.add_option("--workers", o.workers,
                    "Calls run at once (0 = one per CPU of the cgroup limit); each gets 2 x CPUs / "
                    "workers threads, at most the CPUs")
@@ -62,6 +66,10 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
                    "warning, (0, 1]")
         ->envname("SOILVOL_CAPACITY_WARNING_SHARE")
         ->capture_default_str();
+}
+
+/// Logging and browsers.
+void AddLoggingFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
     app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical, off")
         ->envname("SOILVOL_LOG_LEVEL")
         ->capture_default_str();
@@ -72,6 +80,10 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
                    "Browser origin allowed to call the REST API (repeat; * for any)")
         ->envname("SOILVOL_CORS_ORIGINS")
         ->delimiter(',');
+}
+
+/// The REST listener and its limits.
+void AddHttpFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
     app.add_option("--shutdown-grace-s", o.shutdown_grace_s,
                    "Seconds in-flight calls get to finish on SIGTERM")
         ->envname("SOILVOL_SHUTDOWN_GRACE_S")
@@ -92,6 +104,10 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
                    "Seconds a kept-alive REST connection may wait for its next request")
         ->envname("SOILVOL_HTTP_IDLE_TIMEOUT_S")
         ->capture_default_str();
+}
+
+/// TLS and credentials.
+void AddSecurityFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
     app.add_option("--tls-cert", o.tls_cert,
                    "PEM certificate chain: TLS on the gRPC and REST ports (reloaded on change)")
         ->envname("SOILVOL_TLS_CERT");
@@ -107,6 +123,10 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
     app.add_flag("--allow-unauthenticated", o.allow_unauthenticated,
                  "Serve beyond loopback without asking for credentials")
         ->envname("SOILVOL_ALLOW_UNAUTHENTICATED");
+}
+
+/// Reflection, metrics, probes and gRPC connection ages.
+void AddOperationsFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
     app.add_option("--reflection", o.reflection, "gRPC server reflection (true or false)")
         ->envname("SOILVOL_REFLECTION")
         ->capture_default_str();
@@ -125,8 +145,45 @@ soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) 
                    "Seconds calls in flight get after that GOAWAY")
         ->envname("SOILVOL_GRPC_MAX_CONNECTION_AGE_GRACE_S")
         ->capture_default_str();
+}
+
+soilvol::server::ServerOptions ParseFlags(CLI::App& app, int argc, char** argv) {
+    soilvol::server::ServerOptions o;
+    AddStorageFlags(app, o);
+    AddEngineFlags(app, o);
+    AddLoggingFlags(app, o);
+    AddHttpFlags(app, o);
+    AddSecurityFlags(app, o);
+    AddOperationsFlags(app, o);
     app.parse(argc, argv);
     return o;
+}
+
+/// The log line that says the server is up: ports, security, sizes, version.
+void LogListening(const soilvol::server::Server& server,
+                  const soilvol::server::ServerOptions& options) {
+    const soilvol::server::ServerOptions resolved = soilvol::server::ResolveOptions(options);
+    LogEvent(
+        LogLevel::kInfo, "listening",
+        {{"grpc_port", server.grpc_port()},
+         {"http_port", server.http_port()},
+         {"probe_port", server.probe_port()},
+         {"tls", resolved.tls_cert.empty()        ? "off"
+                 : resolved.tls_client_ca.empty() ? "on"
+                                                  : "mtls"},
+         {"auth", !resolved.auth_tokens_file.empty() ? "tokens"
+                  : !resolved.tls_client_ca.empty()  ? "client certificates"
+                                                     : "none"},
+         {"grpc_address", resolved.grpc_address},
+         {"http_address", resolved.http_address},
+         {"data_dir", resolved.data_dir},
+         {"cpus", resolved.cpus},
+         {"workers", resolved.workers},
+         {"threads_per_call", soilvol::server::ThreadsPerCall(resolved.cpus, resolved.workers)},
+         {"max_queue", resolved.max_queue},
+         {"records", server.records_kind()},
+         {"version", soilvol::GetBuildInfo().version},
+         {"revision", soilvol::GetBuildInfo().revision}});
 }
 
 }  // namespace
@@ -162,28 +219,7 @@ int main(int argc, char** argv) {
         LogEvent(LogLevel::kError, "cannot start", {{"error", server.status().message()}});
         return absl::IsInvalidArgument(server.status()) ? 2 : 1;
     }
-    const soilvol::server::ServerOptions resolved = soilvol::server::ResolveOptions(options);
-    LogEvent(
-        LogLevel::kInfo, "listening",
-        {{"grpc_port", (*server)->grpc_port()},
-         {"http_port", (*server)->http_port()},
-         {"probe_port", (*server)->probe_port()},
-         {"tls", resolved.tls_cert.empty()        ? "off"
-                 : resolved.tls_client_ca.empty() ? "on"
-                                                  : "mtls"},
-         {"auth", !resolved.auth_tokens_file.empty() ? "tokens"
-                  : !resolved.tls_client_ca.empty()  ? "client certificates"
-                                                     : "none"},
-         {"grpc_address", resolved.grpc_address},
-         {"http_address", resolved.http_address},
-         {"data_dir", resolved.data_dir},
-         {"cpus", resolved.cpus},
-         {"workers", resolved.workers},
-         {"threads_per_call", soilvol::server::ThreadsPerCall(resolved.cpus, resolved.workers)},
-         {"max_queue", resolved.max_queue},
-         {"records", (*server)->records_kind()},
-         {"version", soilvol::GetBuildInfo().version},
-         {"revision", soilvol::GetBuildInfo().revision}});
+    LogListening(**server, options);
     std::thread waiter([&server, &signals] {
         int signal = 0;
         sigwait(&signals, &signal);

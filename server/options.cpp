@@ -40,7 +40,10 @@ absl::Status ValidateAddress(const std::string& address, const std::string& flag
     return absl::OkStatus();
 }
 
-absl::Status ValidateOptions(const ServerOptions& o) {
+namespace {
+
+/// Addresses, the data directory, records, the worker pool and request sizes.
+absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (absl::Status s = ValidateAddress(o.grpc_address, "grpc-address"); !s.ok()) return s;
     if (absl::Status s = ValidateAddress(o.http_address, "http-address"); !s.ok()) return s;
     if (o.data_dir.empty()) return Invalid("data-dir", "must not be empty");
@@ -60,6 +63,11 @@ absl::Status ValidateOptions(const ServerOptions& o) {
     if (!(o.capacity_warning_share > 0.0 && o.capacity_warning_share <= 1.0)) {
         return Invalid("capacity-warning-share", "must be in (0, 1]");
     }
+    return absl::OkStatus();
+}
+
+/// Logging, browsers, shutdown and the REST and gRPC connection limits.
+absl::Status ValidateConnectionOptions(const ServerOptions& o) {
     if (std::find(kLogLevels.begin(), kLogLevels.end(), o.log_level) == kLogLevels.end()) {
         return Invalid("log-level", absl::StrCat("'", o.log_level,
                                                  "' is not one of trace, debug, info, warn, "
@@ -98,6 +106,11 @@ absl::Status ValidateOptions(const ServerOptions& o) {
             return Invalid(flag, "must be in [0, 31536000]");
         }
     }
+    return absl::OkStatus();
+}
+
+/// TLS, metrics, probes and credentials: secure by default.
+absl::Status ValidateSecurityOptions(const ServerOptions& o) {
     if (o.tls_cert.empty() != o.tls_key.empty()) {
         return Invalid(o.tls_cert.empty() ? "tls-cert" : "tls-key",
                        "--tls-cert and --tls-key go together");
@@ -128,6 +141,14 @@ absl::Status ValidateOptions(const ServerOptions& o) {
         }
     }
     return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status ValidateOptions(const ServerOptions& o) {
+    if (absl::Status s = ValidateServiceOptions(o); !s.ok()) return s;
+    if (absl::Status s = ValidateConnectionOptions(o); !s.ok()) return s;
+    return ValidateSecurityOptions(o);
 }
 
 bool IsLoopbackAddress(const std::string& address) {

@@ -30,7 +30,7 @@
 
 namespace soilvol::server {
 
-struct Server::Parts {
+struct ServerParts {
     ServerOptions options;
     std::unique_ptr<Authenticator> authenticator;
     std::unique_ptr<EntryStore> store;
@@ -121,40 +121,30 @@ MetricsAccess MetricsAccessOf(const std::string& value) {
     return MetricsAccess::kOpen;
 }
 
-}  // namespace
-
-Server::Server(std::unique_ptr<Parts> parts) : parts_(std::move(parts)) {}
-
-Server::~Server() { Shutdown(); }
-
-absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOptions& raw) {
-    if (absl::Status status = ValidateOptions(raw); !status.ok()) return status;
-    auto parts = std::make_unique<Parts>();
-    Parts& p = *parts;
-    p.options = ResolveOptions(raw);
+/// TLS files checked before anything listens (a bad file stops the start with its flag, path
+/// and reason), and the authenticator.
+absl::Status OpenSecurity(ServerParts& p) {
     const ServerOptions& o = p.options;
-
     if (!o.tls_cert.empty()) {
-        // Before anything listens: a bad file stops the start with its flag, path and reason.
-        if (absl::Status s = CheckTlsFiles({o.tls_cert, o.tls_key, o.tls_client_ca}); !s.ok()) {
-            return s;
-        }
+        SOILVOL_RETURN_IF_ERROR(CheckTlsFiles({o.tls_cert, o.tls_key, o.tls_client_ca}));
     }
-    absl::StatusOr<std::unique_ptr<Authenticator>> authenticator =
-        Authenticator::Create({o.auth_tokens_file, !o.tls_client_ca.empty()});
-    if (!authenticator.ok()) return authenticator.status();
-    p.authenticator = *std::move(authenticator);
+    SOILVOL_ASSIGN_OR_RETURN(p.authenticator,
+                             Authenticator::Create({o.auth_tokens_file, !o.tls_client_ca.empty()}));
     if (!o.auth_tokens_file.empty() && o.tls_cert.empty() &&
         !(IsLoopbackAddress(o.grpc_address) && IsLoopbackAddress(o.http_address))) {
         LogEvent(LogLevel::kWarn, "bearer tokens travel in clear text: no --tls-cert given",
                  {{"hint", "terminate TLS in front of the server, or give --tls-cert/--tls-key"}});
     }
-    absl::StatusOr<std::unique_ptr<EntryStore>> store = EntryStore::Open(o.data_dir);
-    if (!store.ok()) return store.status();
-    p.store = *std::move(store);
+    return absl::OkStatus();
+}
+
+/// The data directory, the bounded worker pool and the dispatcher over it. Busy, the workers
+/// run at most two engine threads per CPU (ThreadsPerCall), for the OpenMP loops (set per
+/// worker thread) and OpenCV's loops (process-wide).
+absl::Status OpenEngine(ServerParts& p) {
+    const ServerOptions& o = p.options;
+    SOILVOL_ASSIGN_OR_RETURN(p.store, EntryStore::Open(o.data_dir));
     Metrics* metrics = &p.metrics;
-    // Busy, the workers run at most two engine threads per CPU (ThreadsPerCall), for the
-    // OpenMP loops (set per worker thread) and OpenCV's loops (process-wide).
     const int call_threads = ThreadsPerCall(o.cpus, o.workers);
     pipeline::SetOpenCvThreads(call_threads);
     p.pool = std::make_unique<WorkerPool>(
@@ -165,44 +155,55 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
         [call_threads] { pipeline::SetCallThreads(call_threads); });
     p.metrics.SetWorkers(o.workers, o.max_queue);
     p.dispatcher = std::make_unique<Dispatcher>(*p.pool, p.metrics, *p.authenticator);
-    if (o.records_url != "none") {
-        SOILVOL_ASSIGN_OR_RETURN(p.records, OpenRecordStore(o.records_url, o.data_dir));
-        EstimateRecorder::Config recording;
-        recording.retention.max_per_container = o.records_max_per_container;
-        recording.retention.max_age =
-            std::chrono::seconds(static_cast<long long>(o.records_max_age_days * 86400.0));
-        p.recorder = std::make_unique<EstimateRecorder>(*p.records, recording);
-        p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateFeed::Config{});
-        p.metrics.SetRecordsProbe(
-            p.records->kind(), [recorder = p.recorder.get(), feed = p.feed.get()] {
-                const EstimateRecorder::Stats stats = recorder->stats();
-                return Metrics::RecordFigures{stats.records, stats.batches, stats.failures,
-                                              stats.pruned,  stats.queued,  feed->watches()};
-            });
-    }
-    const std::size_t message_bytes = static_cast<std::size_t>(o.max_message_mb) << 20;
+    return absl::OkStatus();
+}
+
+/// The records database, its recorder and the feed that watches read (none: --records-url none).
+absl::Status OpenRecords(ServerParts& p) {
+    const ServerOptions& o = p.options;
+    if (o.records_url == "none") return absl::OkStatus();
+    SOILVOL_ASSIGN_OR_RETURN(p.records, OpenRecordStore(o.records_url, o.data_dir));
+    EstimateRecorder::Config recording;
+    recording.retention.max_per_container = o.records_max_per_container;
+    recording.retention.max_age =
+        std::chrono::seconds(static_cast<long long>(o.records_max_age_days * 86400.0));
+    p.recorder = std::make_unique<EstimateRecorder>(*p.records, recording);
+    p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateFeed::Config{});
+    p.metrics.SetRecordsProbe(
+        p.records->kind(), [recorder = p.recorder.get(), feed = p.feed.get()] {
+            const EstimateRecorder::Stats stats = recorder->stats();
+            return Metrics::RecordFigures{stats.records, stats.batches, stats.failures,
+                                          stats.pruned,  stats.queued,  feed->watches()};
+        });
+    return absl::OkStatus();
+}
+
+std::size_t MessageBytes(const ServerOptions& o) {
+    return static_cast<std::size_t>(o.max_message_mb) << 20;
+}
+
+/// The handlers, the RPC table (checked against the proto's service) and the gRPC services.
+absl::Status MakeServices(ServerParts& p, const google::protobuf::ServiceDescriptor& api) {
     HandlerOptions handling;
-    handling.capacity_warning_share = o.capacity_warning_share;
-    handling.mesh_budget = MeshBudgetFor(message_bytes);
+    handling.capacity_warning_share = p.options.capacity_warning_share;
+    handling.mesh_budget = MeshBudgetFor(MessageBytes(p.options));
     p.handlers =
         std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get(), handling);
     p.rpcs = MakeRpcTable(*p.handlers);
+    SOILVOL_RETURN_IF_ERROR(CheckRpcTable(p.rpcs, api));
     SoilVolumeHandlers* handlers = p.handlers.get();
     p.health = std::make_unique<HealthService>([handlers] { return handlers->CheckReady().ok(); });
-
-    const google::protobuf::ServiceDescriptor* api =
-        google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(
-            "soilvol.v1.SoilVolume");
-    if (api == nullptr) return absl::InternalError("soilvol.v1.SoilVolume is not linked in");
-    absl::StatusOr<std::vector<HttpRoute>> routes = RoutesFromAnnotations(*api);
-    if (!routes.ok()) return routes.status();
-    SOILVOL_RETURN_IF_ERROR(CheckRpcTable(p.rpcs, *api));
     p.service = std::make_unique<SoilVolumeService>(p.rpcs, *p.handlers, *p.dispatcher);
+    return absl::OkStatus();
+}
+
+HttpGatewayOptions GatewayOptions(const ServerOptions& o) {
     HttpGatewayOptions http;
     http.server.address = o.http_address;
     http.server.io_threads = o.http_threads;
     HttpLimits& limits = http.server.limits;
-    limits.max_body_bytes = message_bytes / 3 * 4 + (1u << 20);  // base64 plus the JSON around it
+    // base64 plus the JSON around it
+    limits.max_body_bytes = MessageBytes(o) / 3 * 4 + (1u << 20);
     // Bodies received or held at once: those the workers and the queue can take, and two more.
     limits.max_inflight_body_bytes =
         limits.max_body_bytes * static_cast<std::uint64_t>(o.workers + o.max_queue + 2);
@@ -215,26 +216,39 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     http.cors_origins = o.cors_origins;
     http.metrics = MetricsAccessOf(o.metrics);
     http.probe_address = o.probe_address;
-    HealthService* health = p.health.get();
+    return http;
+}
+
+/// The REST gateway over the proto's routes; a route nothing serves stops the start (it would
+/// answer 500).
+absl::Status MakeGateway(ServerParts& p, const google::protobuf::ServiceDescriptor& api) {
+    SOILVOL_ASSIGN_OR_RETURN(std::vector<HttpRoute> routes, RoutesFromAnnotations(api));
     std::map<std::string, StreamRpc> streams = MakeStreamTable(*p.handlers);
-    for (const HttpRoute& route : *routes) {  // a route nothing serves would be a 500
+    for (const HttpRoute& route : routes) {
         if (p.rpcs.count(route.method) == 0 && streams.count(route.method) == 0) {
             return absl::InternalError(
                 absl::StrCat("REST route ", route.pattern, " (", route.method, ") has no handler"));
         }
     }
+    HealthService* health = p.health.get();
     p.gateway = std::make_unique<HttpGateway>(
-        http, p.rpcs, std::move(streams), *std::move(routes), *p.dispatcher, p.metrics, [health] {
+        GatewayOptions(p.options), p.rpcs, std::move(streams), std::move(routes), *p.dispatcher,
+        p.metrics, [health] {
             return health->StatusOf("") == grpc::health::v1::HealthCheckResponse::SERVING;
         });
+    return absl::OkStatus();
+}
 
+/// Binds and starts gRPC, then REST; Unavailable naming the flag of an address not bound.
+absl::Status StartListening(ServerParts& p) {
+    const ServerOptions& o = p.options;
     grpc::reflection::InitProtoReflectionServerBuilderPlugin();
     grpc::ServerBuilder builder;
     if (!o.reflection) builder.SetOption(std::make_unique<WithoutReflection>());
     builder.AddListeningPort(o.grpc_address, GrpcCredentials(o), &p.grpc_port);
     ApplyConnectionLimits(o, builder);
-    builder.SetMaxReceiveMessageSize(static_cast<int>(message_bytes));
-    builder.SetMaxSendMessageSize(static_cast<int>(message_bytes));
+    builder.SetMaxReceiveMessageSize(static_cast<int>(MessageBytes(o)));
+    builder.SetMaxSendMessageSize(static_cast<int>(MessageBytes(o)));
     builder.RegisterService(p.service.get());
     builder.RegisterService(p.health.get());
     p.grpc_server = builder.BuildAndStart();
@@ -248,8 +262,31 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
         return http_port.status();
     }
     p.http_port = *http_port;
+    return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOptions& raw) {
+    SOILVOL_RETURN_IF_ERROR(ValidateOptions(raw));
+    auto parts = std::make_unique<ServerParts>();
+    parts->options = ResolveOptions(raw);
+    const google::protobuf::ServiceDescriptor* api =
+        google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(
+            "soilvol.v1.SoilVolume");
+    if (api == nullptr) return absl::InternalError("soilvol.v1.SoilVolume is not linked in");
+    SOILVOL_RETURN_IF_ERROR(OpenSecurity(*parts));
+    SOILVOL_RETURN_IF_ERROR(OpenEngine(*parts));
+    SOILVOL_RETURN_IF_ERROR(OpenRecords(*parts));
+    SOILVOL_RETURN_IF_ERROR(MakeServices(*parts, *api));
+    SOILVOL_RETURN_IF_ERROR(MakeGateway(*parts, *api));
+    SOILVOL_RETURN_IF_ERROR(StartListening(*parts));
     return std::unique_ptr<Server>(new Server(std::move(parts)));
 }
+
+Server::Server(std::unique_ptr<ServerParts> parts) : parts_(std::move(parts)) {}
+
+Server::~Server() { Shutdown(); }
 
 int Server::grpc_port() const { return parts_->grpc_port; }
 int Server::http_port() const { return parts_->http_port; }
@@ -260,7 +297,7 @@ const char* Server::records_kind() const {
 }
 
 void Server::Shutdown() {
-    Parts& p = *parts_;
+    ServerParts& p = *parts_;
     {
         std::lock_guard<std::mutex> lock(p.mutex);
         if (p.stopping) return;

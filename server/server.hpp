@@ -7,6 +7,8 @@
 
 namespace soilvol::server {
 
+struct ServerParts;  ///< what a Server runs (server.cpp)
+
 /// soilvol-server: the model store, the worker pool, the gRPC service (with health and
 /// reflection) and the REST gateway, started together and stopped together.
 class Server {
@@ -29,9 +31,8 @@ class Server {
     void Wait();
 
   private:
-    struct Parts;
-    explicit Server(std::unique_ptr<Parts> parts);
-    std::unique_ptr<Parts> parts_;
+    explicit Server(std::unique_ptr<ServerParts> parts);
+    std::unique_ptr<ServerParts> parts_;
 };
 
 }  // namespace soilvol::server

@@ -8,6 +8,16 @@
 namespace soilvol::server {
 namespace {
 
+v1::EstimationMethod MethodOf(volume::Method method) {
+    switch (method) {
+        case volume::Method::kHeightmap:
+            return v1::ESTIMATION_METHOD_HEIGHTMAP;
+        case volume::Method::kPaper:
+            return v1::ESTIMATION_METHOD_PAPER;
+    }
+    return v1::ESTIMATION_METHOD_UNSPECIFIED;
+}
+
 /// What a container's estimates take: a mesh alone places the container before a cloud sensor.
 pipeline::ScanKind KindOf(v1::ScanKind kind) {
     switch (kind) {
@@ -127,8 +137,7 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     }
     response->set_container_id(request.container_id());
     response->set_request_id(request.request_id());
-    response->set_method(config.method == volume::Method::kPaper ? v1::ESTIMATION_METHOD_PAPER
-                                                                 : v1::ESTIMATION_METHOD_HEIGHTMAP);
+    response->set_method(MethodOf(config.method));
     ToProto(volume::AssessLoad(estimate.volume_m3, estimate.uncertainty_m3, rules.material,
                                rules.targets, options.material_density_kg_m3),
             response);

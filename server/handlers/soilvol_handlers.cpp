@@ -17,6 +17,17 @@
 namespace soilvol::server {
 namespace {
 
+/// The prefix of an id the server chooses: "cal-..." or "ctr-...".
+const char* IdPrefix(EntryKind kind) {
+    switch (kind) {
+        case EntryKind::kCalibration:
+            return "cal";
+        case EntryKind::kContainer:
+            return "ctr";
+    }
+    return "id";
+}
+
 const google::protobuf::FieldDescriptor& Field(const google::protobuf::Message& message,
                                                const char* name) {
     return *message.GetDescriptor()->FindFieldByName(name);
@@ -130,8 +141,7 @@ absl::StatusOr<std::string> SoilVolumeHandlers::ClaimId(const Create& create,
     }
     std::string id = create.id;
     if (id.empty()) {
-        id = ServerChosenId(create.kind == EntryKind::kCalibration ? "cal" : "ctr",
-                            create.request_id);
+        id = ServerChosenId(IdPrefix(create.kind), create.request_id);
     } else {
         SOILVOL_RETURN_IF_ERROR(ValidateId(id, create.id_field));
     }

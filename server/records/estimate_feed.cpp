@@ -131,6 +131,40 @@ bool EstimateFeed::CatchUp(Watch& watch, std::int64_t upto) {
     return true;
 }
 
+void EstimateFeed::DeliverNew(const std::vector<std::shared_ptr<Watch>>& watches) {
+    // What is new since the last round, every container at once.
+    std::vector<EstimateRecord> fresh;
+    RecordQuery query;
+    query.after_id = newest_;
+    query.limit = config_.batch;
+    if (auto rows = recorder_.store().List(query); rows.ok()) fresh = *std::move(rows);
+    const std::int64_t before = newest_;
+    if (!fresh.empty()) newest_ = fresh.back().id;
+    for (const auto& watch : watches) {
+        if (!watch->live()) continue;
+        if (watch->cursor_ < 0) watch->cursor_ = before;  // placed: from now on
+        // Behind (resumed from an old id): from the store first.
+        if (!CatchUp(*watch, before)) {
+            End(watch, absl::OkStatus());
+            continue;
+        }
+        for (const EstimateRecord& row : fresh) {
+            if (row.id <= watch->cursor_) continue;
+            if (!watch->Offer(&row)) break;
+            watch->cursor_ = row.id;
+        }
+        if (watch->live() &&
+            std::chrono::steady_clock::now() - watch->last_sent_ >= config_.heartbeat) {
+            watch->Offer(nullptr);
+        }
+        if (!watch->live()) {
+            End(watch, absl::OkStatus());
+        } else {
+            watch->cursor_ = std::max(watch->cursor_, newest_);
+        }
+    }
+}
+
 void EstimateFeed::Run() {
     std::int64_t seen_local = 0;
     while (true) {
@@ -161,37 +195,7 @@ void EstimateFeed::Run() {
             }
             continue;
         }
-        // What is new since the last round, every container at once.
-        std::vector<EstimateRecord> fresh;
-        RecordQuery query;
-        query.after_id = newest_;
-        query.limit = config_.batch;
-        if (auto rows = recorder_.store().List(query); rows.ok()) fresh = *std::move(rows);
-        const std::int64_t before = newest_;
-        if (!fresh.empty()) newest_ = fresh.back().id;
-        for (const auto& watch : watches) {
-            if (!watch->live()) continue;
-            if (watch->cursor_ < 0) watch->cursor_ = before;  // placed: from now on
-            // Behind (resumed from an old id): from the store first.
-            if (!CatchUp(*watch, before)) {
-                End(watch, absl::OkStatus());
-                continue;
-            }
-            for (const EstimateRecord& row : fresh) {
-                if (row.id <= watch->cursor_) continue;
-                if (!watch->Offer(&row)) break;
-                watch->cursor_ = row.id;
-            }
-            if (watch->live() &&
-                std::chrono::steady_clock::now() - watch->last_sent_ >= config_.heartbeat) {
-                watch->Offer(nullptr);
-            }
-            if (!watch->live()) {
-                End(watch, absl::OkStatus());
-            } else {
-                watch->cursor_ = std::max(watch->cursor_, newest_);
-            }
-        }
+        DeliverNew(watches);
     }
 }
 

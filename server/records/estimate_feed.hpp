@@ -60,6 +60,9 @@ class EstimateFeed {
     void Shutdown();
 
   private:
+    /// One round: what is new since the last, every container at once, to every watch
+    /// (each caught up from the store first when it is behind), heartbeats when due.
+    void DeliverNew(const std::vector<std::shared_ptr<Watch>>& watches);
     void Run();
     /// Hands `watch` what it is owed up to `upto`: false when it ended.
     bool CatchUp(Watch& watch, std::int64_t upto);

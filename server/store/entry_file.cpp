@@ -12,7 +12,15 @@ constexpr std::size_t kVersionAt = 8;
 constexpr std::size_t kKindAt = 12;
 constexpr std::size_t kSizeAt = 16;
 
-uint32_t KindCode(EntryKind kind) { return kind == EntryKind::kCalibration ? 1 : 2; }
+uint32_t KindCode(EntryKind kind) {
+    switch (kind) {
+        case EntryKind::kCalibration:
+            return 1;
+        case EntryKind::kContainer:
+            return 2;
+    }
+    return 0;
+}
 
 void PutLe(std::string& out, uint64_t value, int bytes) {
     for (int i = 0; i < bytes; ++i) out.push_back(static_cast<char>((value >> (8 * i)) & 0xff));
@@ -29,7 +37,13 @@ uint64_t GetLe(std::string_view bytes, std::size_t at, int n) {
 }  // namespace
 
 std::string_view KindName(EntryKind kind) {
-    return kind == EntryKind::kCalibration ? "calibration" : "container";
+    switch (kind) {
+        case EntryKind::kCalibration:
+            return "calibration";
+        case EntryKind::kContainer:
+            return "container";
+    }
+    return "entry";
 }
 
 EntryEnvelope EnvelopeFor(EntryKind kind, std::string_view payload) {

@@ -173,7 +173,13 @@ absl::Status EntryStore::CheckWritable() const {
 }
 
 std::string EntryStore::Folder(EntryKind kind) const {
-    return (root_ / (kind == EntryKind::kCalibration ? "calibrations" : "containers")).string();
+    switch (kind) {
+        case EntryKind::kCalibration:
+            return (root_ / "calibrations").string();
+        case EntryKind::kContainer:
+            return (root_ / "containers").string();
+    }
+    return root_.string();
 }
 
 std::string EntryStore::EntryPath(EntryKind kind, std::string_view id) const {
