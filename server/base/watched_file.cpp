@@ -34,7 +34,8 @@ void WatchedFiles::Mark() { stamps_ = Stamps(); }
 
 absl::StatusOr<std::string> ReadSmallFile(const std::string& path, std::size_t max_bytes,
                                           const std::string& flag) {
-    UniqueFd fd = OpenFile(path, O_RDONLY | O_CLOEXEC);
+    // O_NONBLOCK: a FIFO in the file's place must not hang the server (it is refused below).
+    UniqueFd fd = OpenFile(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (!fd.valid()) {
         return absl::InvalidArgumentError(
             absl::StrCat("--", flag, ": cannot open ", path, ": ", std::strerror(errno)));

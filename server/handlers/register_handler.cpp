@@ -274,6 +274,27 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
 }  // namespace soilvol::server
 
 namespace soilvol::server {
+namespace {
+
+/// The update's fields (by `mask`) merged into `container`, which gets a new etag and update
+/// time; InvalidArgument for settings out of range.
+absl::Status MergeUpdate(const v1::UpdateContainerRequest& request,
+                         const google::protobuf::FieldMask& mask, v1::Container* container) {
+    const std::string id = container->container_id();
+    google::protobuf::util::FieldMaskUtil::MergeOptions replace;
+    replace.set_replace_message_fields(true);   // "material" names the whole message
+    replace.set_replace_repeated_fields(true);  // and "labels" the whole map
+    google::protobuf::util::FieldMaskUtil::MergeMessageTo(request.container(), mask, replace,
+                                                          container);
+    SOILVOL_RETURN_IF_ERROR(CheckSettings(*container, "container."));
+    container->set_container_id(id);
+    container->set_etag(NewEtag());
+    *container->mutable_update_time() = NowTimestamp();
+    container->clear_warnings();  // output only, never stored
+    return absl::OkStatus();
+}
+
+}  // namespace
 
 absl::Status SoilVolumeHandlers::UpdateContainer(const v1::UpdateContainerRequest& request,
                                                  v1::Container* response, CallRecord& record) {
@@ -281,27 +302,28 @@ absl::Status SoilVolumeHandlers::UpdateContainer(const v1::UpdateContainerReques
     record.ids.push_back({"container", id});
     SOILVOL_RETURN_IF_ERROR(ValidateId(id, "container.container_id"));
     SOILVOL_ASSIGN_OR_RETURN(const google::protobuf::FieldMask mask, UpdateMaskOf(request));
-    absl::StatusOr<StoredEntry> entry = store_.Get(EntryKind::kContainer, id);
-    if (!entry.ok()) return Annotate(entry.status(), "container.container_id");
-    std::string_view model;
-    SOILVOL_RETURN_IF_ERROR(DecodeStoredRecord(entry->payload, response, &model));
-    if (response->etag().empty()) response->set_etag(EtagOf(entry->payload));
-    SOILVOL_RETURN_IF_ERROR(
-        CheckEtag(request.container().etag(), response->etag(), absl::StrCat("'", id, "'")));
-
-    google::protobuf::util::FieldMaskUtil::MergeOptions replace;
-    replace.set_replace_message_fields(true);   // "material" names the whole message
-    replace.set_replace_repeated_fields(true);  // and "labels" the whole map
-    google::protobuf::util::FieldMaskUtil::MergeMessageTo(request.container(), mask, replace,
-                                                          response);
-    SOILVOL_RETURN_IF_ERROR(CheckSettings(*response, "container."));
-    response->set_container_id(id);
-    response->set_etag(NewEtag());
-    *response->mutable_update_time() = NowTimestamp();
-    response->clear_warnings();  // output only, never stored
-    SOILVOL_RETURN_IF_ERROR(
-        Annotate(store_.Put(EntryKind::kContainer, id, EncodeStoredRecord(*response, model), true),
-                 "container.container_id"));
+    // Read, merge, write only if the entry is still the one read: a concurrent update in
+    // between is never lost. Without a client etag the merge is tried again on the new entry;
+    // with one, the client's view is stale (ABORTED).
+    constexpr int kAttempts = 8;
+    absl::Status written;
+    for (int attempt = 0; attempt < kAttempts; ++attempt) {
+        absl::StatusOr<StoredEntry> entry = store_.Get(EntryKind::kContainer, id);
+        if (!entry.ok()) return Annotate(entry.status(), "container.container_id");
+        response->Clear();
+        std::string_view model;
+        SOILVOL_RETURN_IF_ERROR(DecodeStoredRecord(entry->payload, response, &model));
+        const std::string read_etag =
+            response->etag().empty() ? EtagOf(entry->payload) : response->etag();
+        SOILVOL_RETURN_IF_ERROR(
+            CheckEtag(request.container().etag(), read_etag, absl::StrCat("'", id, "'")));
+        SOILVOL_RETURN_IF_ERROR(MergeUpdate(request, mask, response));
+        written =
+            store_.PutIf(EntryKind::kContainer, id, EncodeStoredRecord(*response, model),
+                         EtagIs(EntryKind::kContainer, id, read_etag, "container.container_id"));
+        if (!absl::IsAborted(written) || !request.container().etag().empty()) break;
+    }
+    SOILVOL_RETURN_IF_ERROR(written);
     AddWarnings(response);
     return absl::OkStatus();
 }

@@ -62,7 +62,37 @@ absl::Status ListEntries(const EntryStore& store, EntryKind kind, const Request&
     return absl::OkStatus();
 }
 
+std::unique_ptr<google::protobuf::Message> NewInfo(EntryKind kind) {
+    switch (kind) {
+        case EntryKind::kCalibration:
+            return std::make_unique<v1::Calibration>();
+        case EntryKind::kContainer:
+            return std::make_unique<v1::Container>();
+    }
+    return nullptr;
+}
+
+/// The etag of a stored entry: its info's, or for entries written before etags, one from its
+/// bytes (as ReadInfo reports it).
+absl::StatusOr<std::string> StoredEtag(EntryKind kind, const std::string& payload) {
+    std::unique_ptr<google::protobuf::Message> info = NewInfo(kind);
+    std::string_view body;
+    SOILVOL_RETURN_IF_ERROR(DecodeStoredRecord(payload, info.get(), &body));
+    const std::string etag = StringField(*info, "etag");
+    return etag.empty() ? EtagOf(payload) : etag;
+}
+
 }  // namespace
+
+EntryStore::Precondition EtagIs(EntryKind kind, const std::string& id, const std::string& etag,
+                                const char* field) {
+    return [kind, id, etag, field](const absl::StatusOr<StoredEntry>& current) -> absl::Status {
+        if (!current.ok()) return Annotate(current.status(), field);
+        absl::StatusOr<std::string> stored = StoredEtag(kind, current->payload);
+        if (!stored.ok()) return Annotate(stored.status(), field);
+        return CheckEtag(etag, *stored, absl::StrCat("'", id, "'"));
+    };
+}
 
 SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder,
                                        EstimateFeed* feed, HandlerOptions options)
@@ -170,16 +200,13 @@ absl::Status SoilVolumeHandlers::Store(const Create& create, const std::string& 
                                        google::protobuf::Message* info, std::string_view body) {
     SetStringField(info, "create_request_id", create.request_id);
     SetStringField(info, "etag", NewEtag());
-    if (!create.etag.empty()) {  // the entry may have changed while this one was computed
-        std::unique_ptr<google::protobuf::Message> current(info->New());
-        if (absl::Status read = ReadInfo(create.kind, id, current.get()); !read.ok()) {
-            return Annotate(read, create.id_field);
-        }
-        SOILVOL_RETURN_IF_ERROR(
-            CheckEtag(create.etag, StringField(*current, "etag"), absl::StrCat("'", id, "'")));
-    }
-    absl::Status put =
-        store_.Put(create.kind, id, EncodeStoredRecord(*info, body), create.overwrite);
+    const std::string payload = EncodeStoredRecord(*info, body);
+    // The entry may have changed while this one was computed: the etag is compared again
+    // under the store's lock, and the write happens only if it still holds.
+    absl::Status put = create.etag.empty()
+                           ? store_.Put(create.kind, id, payload, create.overwrite)
+                           : store_.PutIf(create.kind, id, payload,
+                                          EtagIs(create.kind, id, create.etag, create.id_field));
     if (absl::IsAlreadyExists(put) && !create.request_id.empty()) {
         // A retry of this very request that finished first: its result is the answer.
         std::unique_ptr<google::protobuf::Message> first(info->New());
@@ -195,18 +222,8 @@ absl::Status SoilVolumeHandlers::Store(const Create& create, const std::string& 
 absl::Status SoilVolumeHandlers::DeleteEntry(EntryKind kind, const std::string& id,
                                              const char* field, const std::string& etag) {
     SOILVOL_RETURN_IF_ERROR(ValidateId(id, field));
-    if (!etag.empty()) {
-        std::unique_ptr<google::protobuf::Message> info;
-        if (kind == EntryKind::kCalibration) {
-            info = std::make_unique<v1::Calibration>();
-        } else {
-            info = std::make_unique<v1::Container>();
-        }
-        SOILVOL_RETURN_IF_ERROR(Annotate(ReadInfo(kind, id, info.get()), field));
-        SOILVOL_RETURN_IF_ERROR(
-            CheckEtag(etag, StringField(*info, "etag"), absl::StrCat("'", id, "'")));
-    }
-    return Annotate(store_.Delete(kind, id), field);
+    if (etag.empty()) return Annotate(store_.Delete(kind, id), field);
+    return Annotate(store_.DeleteIf(kind, id, EtagIs(kind, id, etag, field)), field);
 }
 
 absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(

@@ -23,6 +23,12 @@
 namespace soilvol::server {
 
 /// What the handlers take from the server's options.
+/// The store's precondition of a write or delete at `etag`: the entry published at the moment
+/// of the write must still carry it (ABORTED otherwise, NOT_FOUND when it is gone), errors
+/// annotated with `field`.
+EntryStore::Precondition EtagIs(EntryKind kind, const std::string& id, const std::string& etag,
+                                const char* field);
+
 struct HandlerOptions {
     /// A registration whose struck capacity's 1-sigma exceeds this share of it warns
     /// (Container.warnings), (0, 1].

@@ -15,6 +15,7 @@
 #include "server/base/absl_view.hpp"
 #include "server/base/posix_io.hpp"
 #include "server/store/entry_id.hpp"
+#include "server/store/folder_lock.hpp"
 #include "server/store/temp_file.hpp"
 
 namespace soilvol::server {
@@ -69,6 +70,24 @@ absl::StatusOr<std::unique_ptr<EntryStore>> EntryStore::Open(const std::filesyst
 
 absl::Status EntryStore::Put(EntryKind kind, std::string_view id, std::string_view payload,
                              bool overwrite) {
+    if (overwrite) return Publish(kind, id, payload, nullptr);
+    const std::string label = Label(kind, id);
+    // A cheap early answer before the write; the check under the lock decides races.
+    if (Stat(kind, id).ok()) return absl::AlreadyExistsError(label + " already exists");
+    return Publish(kind, id, payload, [&label](const absl::StatusOr<StoredEntry>& current) {
+        return absl::IsNotFound(current.status())
+                   ? absl::OkStatus()
+                   : absl::AlreadyExistsError(label + " already exists");
+    });
+}
+
+absl::Status EntryStore::PutIf(EntryKind kind, std::string_view id, std::string_view payload,
+                               const Precondition& expect) {
+    return Publish(kind, id, payload, expect);
+}
+
+absl::Status EntryStore::Publish(EntryKind kind, std::string_view id, std::string_view payload,
+                                 const Precondition& expect) {
     SOILVOL_RETURN_IF_ERROR(ValidateId(id, IdField(kind)));
     if (payload.size() > kMaxEntryPayloadBytes) {
         return absl::InvalidArgumentError(absl::StrCat(Label(kind, id), " is ", payload.size(),
@@ -76,26 +95,22 @@ absl::Status EntryStore::Put(EntryKind kind, std::string_view id, std::string_vi
                                                        kMaxEntryPayloadBytes));
     }
     const std::string target = EntryPath(kind, id);
-    const absl::Status exists = absl::AlreadyExistsError(Label(kind, id) + " already exists");
-    struct stat st;
-    // A cheap early answer; link(2) below decides races.
-    if (!overwrite && ::lstat(target.c_str(), &st) == 0) return exists;
-
-    // Write and fsync a temp file next to the target, publish it, fsync the folder.
+    // Write and fsync a temp file next to the target (outside the lock: it may be large), then
+    // check and publish under the lock: rename(2) replaces atomically.
     const EntryEnvelope envelope = EnvelopeFor(kind, payload);
     SOILVOL_ASSIGN_OR_RETURN(
         const std::string temp,
         WriteTempFile(Folder(kind), id, {envelope.header, payload, envelope.trailer}));
-    // Publish: rename(2) replaces atomically; link(2) fails with EEXIST when the id exists.
-    const int published =
-        overwrite ? ::rename(temp.c_str(), target.c_str()) : ::link(temp.c_str(), target.c_str());
-    const int publish_error = published == 0 ? 0 : errno;
-    if (publish_error != 0 || !overwrite) ::unlink(temp.c_str());
-    if (publish_error == EEXIST && !overwrite) return exists;
-    if (publish_error != 0) {
-        return ErrnoStatus(publish_error, "cannot publish", target);
-    }
-    return SyncDirectory(Folder(kind));
+    absl::Status published = [&]() -> absl::Status {
+        SOILVOL_ASSIGN_OR_RETURN(const FolderLock lock, FolderLock::Acquire(Folder(kind)));
+        if (expect) SOILVOL_RETURN_IF_ERROR(expect(Get(kind, id)));
+        if (::rename(temp.c_str(), target.c_str()) != 0) {
+            return ErrnoStatus(errno, "cannot publish", target);
+        }
+        return SyncDirectory(Folder(kind));
+    }();
+    if (!published.ok()) ::unlink(temp.c_str());
+    return published;
 }
 
 absl::StatusOr<StoredEntry> EntryStore::Get(EntryKind kind, std::string_view id) const {
@@ -139,8 +154,14 @@ absl::StatusOr<FileStamp> EntryStore::Stat(EntryKind kind, std::string_view id) 
 }
 
 absl::Status EntryStore::Delete(EntryKind kind, std::string_view id) {
+    return DeleteIf(kind, id, nullptr);
+}
+
+absl::Status EntryStore::DeleteIf(EntryKind kind, std::string_view id, const Precondition& expect) {
     SOILVOL_RETURN_IF_ERROR(ValidateId(id, IdField(kind)));
     const std::string path = EntryPath(kind, id);
+    SOILVOL_ASSIGN_OR_RETURN(const FolderLock lock, FolderLock::Acquire(Folder(kind)));
+    if (expect) SOILVOL_RETURN_IF_ERROR(expect(Get(kind, id)));
     if (::unlink(path.c_str()) != 0) {
         if (errno == ENOENT) return absl::NotFoundError(Label(kind, id) + " not found");
         return ErrnoStatus(errno, "cannot delete", path);

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -45,6 +46,17 @@ class EntryStore {
     /// racing creators wins); Internal or Unavailable with the errno text on I/O failure.
     absl::Status Put(EntryKind kind, std::string_view id, std::string_view payload, bool overwrite);
 
+    /// What a conditional write or delete requires of the entry published now (NotFound when
+    /// there is none, DataLoss when it is damaged): OK to go on, else the call's error.
+    using Precondition = std::function<absl::Status(const absl::StatusOr<StoredEntry>& current)>;
+
+    /// A compare-and-swap: publishes `payload` under `id` if `expect` accepts the entry published
+    /// now, with no other write or delete of that kind in between, in this process or another
+    /// sharing the root (FolderLock). Of several writers expecting the same entry exactly one
+    /// wins; the others get what `expect` says of the winner's. Errors as Put's, or expect's.
+    absl::Status PutIf(EntryKind kind, std::string_view id, std::string_view payload,
+                       const Precondition& expect);
+
     /// The entry's payload, with the stamp of the very file read. NotFound when absent;
     /// DataLoss for a damaged, oversized or non-regular file and FailedPrecondition for another
     /// schema version, the message prefixed with the kind and id.
@@ -55,6 +67,9 @@ class EntryStore {
 
     /// Removes the entry. NotFound when absent.
     absl::Status Delete(EntryKind kind, std::string_view id);
+
+    /// Removes the entry if `expect` accepts it, atomically as PutIf. NotFound when absent.
+    absl::Status DeleteIf(EntryKind kind, std::string_view id, const Precondition& expect);
 
     /// Sorted ids of the published entries (damaged ones included); ignores temp files,
     /// dotfiles and names that are not valid ids. Empty when the folder cannot be read.
@@ -69,6 +84,10 @@ class EntryStore {
     explicit EntryStore(std::filesystem::path root) : root_(std::move(root)) {}
     std::string Folder(EntryKind kind) const;
     std::string EntryPath(EntryKind kind, std::string_view id) const;
+    /// Writes `payload` to a temp file, then under the kind's FolderLock asks `expect` (when
+    /// set) about the entry published now and renames the temp file over it.
+    absl::Status Publish(EntryKind kind, std::string_view id, std::string_view payload,
+                         const Precondition& expect);
 
     std::filesystem::path root_;
 };

@@ -118,7 +118,7 @@ TEST_F(EntryStoreTest, PutThenGetReturnsThePayloadAndStamp) {
     ASSERT_TRUE(stamp.ok());
     EXPECT_EQ(*stamp, entry->stamp);
     EXPECT_EQ(stamp->size, fs::file_size(Containers() / "bucket-1.entry"));
-    EXPECT_EQ(Names(Containers()), Ids{"bucket-1.entry"});
+    EXPECT_EQ(Names(Containers()), (Ids{".lock", "bucket-1.entry"}));  // .lock: FolderLock
 }
 
 TEST_F(EntryStoreTest, KindsAreSeparateNamespaces) {
@@ -152,7 +152,7 @@ TEST_F(EntryStoreTest, OverwriteReplacesTheContent) {
     EXPECT_NE(*store_->Stat(kContainer, "x"), before);
     ASSERT_TRUE(store_->Put(kContainer, "fresh", "first", true).ok());
     EXPECT_EQ(store_->Get(kContainer, "fresh")->payload, "first");
-    EXPECT_EQ(Names(Containers()), (Ids{"fresh.entry", "x.entry"}));
+    EXPECT_EQ(Names(Containers()), (Ids{".lock", "fresh.entry", "x.entry"}));
 }
 
 TEST_F(EntryStoreTest, DeleteThenGetIsNotFound) {
@@ -345,6 +345,102 @@ TEST_F(EntryStoreTest, RacingProcessesCreateExactlyOnce) {
                 const absl::Status s =
                     store_->Put(kContainer, id, std::string(1 << 16, 'p'), false);
                 ::_exit(s.ok() ? kWon : s.code() == absl::StatusCode::kAlreadyExists ? kLost : 1);
+            }
+            children.push_back(pid);
+        }
+        int won = 0;
+        for (const pid_t pid : children) {
+            int status = 0;
+            ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+            ASSERT_TRUE(WIFEXITED(status));
+            ASSERT_NE(WEXITSTATUS(status), 1);
+            won += WEXITSTATUS(status) == kWon;
+        }
+        EXPECT_EQ(won, 1) << "round " << round;
+    }
+    EXPECT_FALSE(HasTempFile(Containers()));
+}
+
+// The precondition of a compare-and-swap: the entry published now must hold `payload`.
+EntryStore::Precondition Holds(const std::string& payload) {
+    return [payload](const absl::StatusOr<StoredEntry>& current) -> absl::Status {
+        if (!current.ok()) return current.status();
+        return current->payload == payload ? absl::OkStatus()
+                                           : absl::AbortedError("the entry changed");
+    };
+}
+
+TEST_F(EntryStoreTest, PutIfWritesOnlyWhatThePreconditionAccepts) {
+    ASSERT_TRUE(store_->Put(kContainer, "cas", "v1", false).ok());
+    EXPECT_EQ(store_->PutIf(kContainer, "cas", "v2", Holds("v0")).code(),
+              absl::StatusCode::kAborted);
+    EXPECT_EQ(store_->Get(kContainer, "cas")->payload, "v1");
+    EXPECT_TRUE(store_->PutIf(kContainer, "cas", "v2", Holds("v1")).ok());
+    EXPECT_EQ(store_->Get(kContainer, "cas")->payload, "v2");
+    EXPECT_EQ(store_->PutIf(kContainer, "absent", "v1", Holds("v0")).code(),
+              absl::StatusCode::kNotFound);
+    EXPECT_EQ(store_->DeleteIf(kContainer, "cas", Holds("v1")).code(), absl::StatusCode::kAborted);
+    EXPECT_TRUE(store_->DeleteIf(kContainer, "cas", Holds("v2")).ok());
+    EXPECT_EQ(store_->Get(kContainer, "cas").status().code(), absl::StatusCode::kNotFound);
+    EXPECT_FALSE(HasTempFile(Containers()));
+    EXPECT_EQ(store_->List(kContainer), Ids{});  // the lock file is no entry
+}
+
+// Writers that all read version N and write N+1 conditionally: exactly one per version wins,
+// so the number of successes equals the number of versions (no lost update).
+TEST_F(EntryStoreTest, RacingThreadsCompareAndSwapExactlyOnce) {
+    constexpr int kThreads = 8;
+    ASSERT_TRUE(store_->Put(kContainer, "cas", "v0", false).ok());
+    for (int round = 0; round < 20; ++round) {
+        const std::string before = "v" + std::to_string(round);
+        std::atomic<int> ready{0};
+        std::vector<absl::Status> results(kThreads);
+        std::vector<std::thread> threads;
+        for (int t = 0; t < kThreads; ++t) {
+            threads.emplace_back([&, t] {
+                ++ready;
+                while (ready.load() < kThreads) std::this_thread::yield();
+                results[t] = store_->PutIf(
+                    kContainer, "cas", "v" + std::to_string(round + 1) + "." + std::to_string(t),
+                    Holds(before));
+            });
+        }
+        for (std::thread& t : threads) t.join();
+        int winner = -1;
+        for (int t = 0; t < kThreads; ++t) {
+            if (results[t].ok()) {
+                EXPECT_EQ(winner, -1) << "two winners in round " << round;
+                winner = t;
+            } else {
+                EXPECT_EQ(results[t].code(), absl::StatusCode::kAborted) << results[t];
+            }
+        }
+        ASSERT_NE(winner, -1);
+        const std::string after = "v" + std::to_string(round + 1) + "." + std::to_string(winner);
+        ASSERT_EQ(store_->Get(kContainer, "cas")->payload, after);
+        ASSERT_TRUE(store_->Put(kContainer, "cas", "v" + std::to_string(round + 1), true).ok());
+    }
+    EXPECT_FALSE(HasTempFile(Containers()));
+}
+
+// The same across processes sharing the root, as replicas on one volume do.
+TEST_F(EntryStoreTest, RacingProcessesCompareAndSwapExactlyOnce) {
+    constexpr int kProcesses = 4;
+    constexpr int kWon = 10;
+    constexpr int kLost = 11;
+    for (int round = 0; round < 5; ++round) {
+        const std::string id = "proc" + std::to_string(round);
+        ASSERT_TRUE(store_->Put(kContainer, id, "old", false).ok());
+        std::vector<pid_t> children;
+        for (int p = 0; p < kProcesses; ++p) {
+            const pid_t pid = ::fork();
+            ASSERT_GE(pid, 0);
+            if (pid == 0) {
+                auto store = EntryStore::Open(dir_.path());  // a process of its own
+                if (!store.ok()) ::_exit(1);
+                const absl::Status s = (*store)->PutIf(
+                    kContainer, id, std::string(1 << 16, static_cast<char>('a' + p)), Holds("old"));
+                ::_exit(s.ok() ? kWon : s.code() == absl::StatusCode::kAborted ? kLost : 1);
             }
             children.push_back(pid);
         }
