@@ -1,20 +1,17 @@
 #!/usr/bin/env bash
-# CI's fuzzing phase: the libFuzzer targets of tests/fuzz, built with clang under
-# AddressSanitizer + UndefinedBehaviorSanitizer, each run for SOILVOL_FUZZ_SECONDS (default 20)
-# from the committed seeds plus those soilvol's encoders write. Any crash, leak, sanitizer
-# finding or broken round trip fails the phase; the input that did it is kept in the build dir
-# (crash-*, leak-*, timeout-*) for a regression test. Build dir ${SOILVOL_FUZZ_BUILD_DIR:-build-fuzz}.
+# CI's fuzzing phase: the libFuzzer targets of tests/fuzz, from the sanitizer phase's build
+# (scripts/sanitized-build.sh: clang, ASan + UBSan, coverage on every target; run alone, this
+# builds only the targets), each run for SOILVOL_FUZZ_SECONDS (default 20) from the committed
+# seeds plus those soilvol's encoders write. Any crash, leak, sanitizer finding or broken round
+# trip fails the phase; the input that did it is kept in the build dir (crash-*, leak-*,
+# timeout-*) for a regression test.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-build_dir="${SOILVOL_FUZZ_BUILD_DIR:-build-fuzz}"
+build_dir="${SOILVOL_ASAN_BUILD_DIR:-build-asan}"
 seconds="${SOILVOL_FUZZ_SECONDS:-20}"
 targets=(fuzz_cloud_decoder fuzz_mesh_decoder fuzz_image_header fuzz_model_codec
     fuzz_http_binding fuzz_calibration_record fuzz_token_file fuzz_multipart fuzz_resource_rules)
-scripts/install-deps.sh fuzz
-CC=clang CXX=clang++ cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DSOILVOL_FUZZ=ON -DSOILVOL_SANITIZE=address,undefined -DSOILVOL_BUILD_TESTS=OFF \
-    -DSOILVOL_BUILD_BENCHMARKS=OFF >/dev/null
-cmake --build "$build_dir" -j "$(nproc)" --target "${targets[@]}" fuzz_make_seeds
+scripts/sanitized-build.sh "${targets[@]}" fuzz_make_seeds
 corpus="$build_dir/fuzz-corpus"
 rm -rf "$corpus"
 mkdir -p "$corpus"

@@ -1,16 +1,12 @@
 #!/usr/bin/env bash
-# Second CI build: every target with AddressSanitizer + UndefinedBehaviorSanitizer (any finding
-# aborts), then the test suite: every unit test and the integration suites that feed the
-# instrumented server untrusted bytes (gRPC, REST, uploads, meshes, hostile clients, security).
-# Build dir ${SOILVOL_ASAN_BUILD_DIR:-build-asan}. -O1, as the sanitizers' manuals advise: it
-# compiles a third faster than -O2 on the CI's two cores.
+# CI's sanitizer phase: the instrumented build (scripts/sanitized-build.sh: clang, AddressSanitizer
+# + UndefinedBehaviorSanitizer, any finding aborts), then the test suite: every unit test and the
+# integration suites that feed the instrumented server untrusted bytes (gRPC, REST, uploads,
+# meshes, hostile clients, security). The fuzzing phase (scripts/fuzz.sh) reuses the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir="${SOILVOL_ASAN_BUILD_DIR:-build-asan}"
-cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DSOILVOL_SANITIZE=address,undefined \
-    -DSOILVOL_BUILD_BENCHMARKS=OFF -DSOILVOL_WARNINGS_AS_ERRORS=ON "$@" >/dev/null
-cmake --build "$build_dir" -j "$(nproc)"
+scripts/sanitized-build.sh
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1:check_initialization_order=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan.supp:print_suppressions=0"
