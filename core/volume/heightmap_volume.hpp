@@ -14,8 +14,9 @@
 namespace soilvol::volume {
 
 /// soilvol's estimator: the empty surface and the scan's surface fitted alike (ray-weighted,
-/// symmetric robust local planes), harmonic hole filling, signed integration (noise is never
-/// clipped cell by cell), exact cell areas. See core/volume/README.md.
+/// symmetric robust local planes), holes filled by Cauchy-weighted planes through the measured
+/// cells around them, signed integration (noise is never clipped cell by cell), exact cell
+/// areas. See core/volume/README.md.
 struct HeightmapConfig {
     double cell_m = 0.0;                   ///< grid cell side; 0 = automatic from point density
     double target_points_per_cell = 16.0;  ///< density target of the automatic cell size

@@ -366,7 +366,9 @@ void FillHoles(const Grid& grid, SurfaceMap& map, const StopToken& stop) {
         const int cell = holes[h];
         const int col = cell % grid.cols, row = cell / grid.cols;
         const Eigen::Vector2d centre = grid.anchor[static_cast<std::size_t>(cell)];
-        for (int reach = 2; reach <= std::max(grid.cols, grid.rows); reach *= 2) {
+        // The last reach is the grid's longer side, so every hole meets the measured cells.
+        const int max_reach = std::max(grid.cols, grid.rows);
+        for (int reach = 2;; reach = std::min(2 * reach, max_reach)) {
             std::vector<Sample> samples;
             const double sigma = 0.5 * reach * grid.cell_m;
             for (int r = std::max(0, row - reach); r <= std::min(grid.rows - 1, row + reach); ++r) {
@@ -380,7 +382,7 @@ void FillHoles(const Grid& grid, SurfaceMap& map, const StopToken& stop) {
                                        1.0 / (1.0 + d.squaredNorm() / (sigma * sigma))});
                 }
             }
-            if (samples.size() < 6 && reach < std::max(grid.cols, grid.rows)) continue;
+            if (samples.size() < 6 && reach < max_reach) continue;
             const PlaneFit fit = FitPlane(samples, {}, 2.0 * reach * grid.cell_m, 1e9);
             if (fit.ok) filled[h] = fit.a;
             break;

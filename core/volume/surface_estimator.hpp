@@ -47,15 +47,18 @@ struct SurfaceMap {
 
 /// Fits each cell's surface height by a robust weighted local plane evaluated at the cell's
 /// anchor, from `points` (container frame) with per-point `weights` >= 0 (empty: all 1),
-/// then fills holes by harmonic interpolation. FailedPrecondition when no cell is measured;
+/// then fills holes as FillHoles does. FailedPrecondition when no cell is measured;
 /// InvalidArgument when the weights do not match the points; DeadlineExceeded or Cancelled once
 /// `stop` asks for it.
 absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points,
                                            const std::vector<float>& weights,
                                            const SurfaceConfig& config, const StopToken& stop = {});
 
-/// Fills the NaN heights of cells with weight > 0 by harmonic (Laplace) interpolation from the
-/// measured cells; interpolated cells get support 0 and the median measured variance, doubled.
+/// Fills the NaN heights of cells with weight > 0 from the measured cells: each hole takes the
+/// value at its anchor of a least-squares plane through the measured cells within 2, 4, 8, ...
+/// cells of it (the first reach holding 6, or the whole grid), weighted by a Cauchy kernel
+/// 1 / (1 + d^2 / s^2), s half the reach (a level when they do not spread in both directions);
+/// interpolated cells get support 0 and the median measured variance, doubled.
 /// On a `stop` the holes are left unfinished; the caller checks the token.
 void FillHoles(const Grid& grid, SurfaceMap& map, const StopToken& stop = {});
 

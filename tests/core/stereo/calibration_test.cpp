@@ -40,16 +40,16 @@ std::string ReencodePng(const std::string& jpeg, int rotate_code) {
     return std::string(png.begin(), png.end());
 }
 
-// The 13-pair calibration runs once for the suite.
+// The 13-pair calibration runs at most once per process, and only for the tests that read it
+// (they start with ASSERT_TRUE(Calibrated())): ctest runs each test in its own process.
 class SamplePairsTest : public ::testing::Test {
   protected:
-    static void SetUpTestSuite() {
-        pairs_ = test::SamplePairs();
-        if (!pairs_.empty()) result_ = CalibrateFromChessboards(pairs_, kBoard);
-    }
-    void SetUp() override {
-        SOILVOL_NEED_SAMPLES(pairs_.empty(), "opencv-doc sample pairs");
-        ASSERT_TRUE(result_->ok()) << result_->status();
+    static void SetUpTestSuite() { pairs_ = test::SamplePairs(); }
+    void SetUp() override { SOILVOL_NEED_SAMPLES(pairs_.empty(), "opencv-doc sample pairs"); }
+    static ::testing::AssertionResult Calibrated() {
+        if (!result_) result_ = CalibrateFromChessboards(pairs_, kBoard);
+        if (result_->ok()) return ::testing::AssertionSuccess();
+        return ::testing::AssertionFailure() << result_->status();
     }
     const StereoCalibration& Calibration() const { return **result_; }
 
@@ -58,6 +58,7 @@ class SamplePairsTest : public ::testing::Test {
 };
 
 TEST_F(SamplePairsTest, AllPairsCalibrateWithinOpenCvSampleFigures) {
+    ASSERT_TRUE(Calibrated());
     const StereoCalibration& calibration = Calibration();
     EXPECT_EQ(calibration.source, "chessboard");
     EXPECT_TRUE(calibration.skipped.empty());
@@ -72,6 +73,7 @@ TEST_F(SamplePairsTest, AllPairsCalibrateWithinOpenCvSampleFigures) {
 }
 
 TEST_F(SamplePairsTest, PerPairFiguresAddUpToTheOverallOnes) {
+    ASSERT_TRUE(Calibrated());
     const StereoCalibration& calibration = Calibration();
     double squared = 0.0;
     double epipolar = 0.0;
@@ -90,6 +92,7 @@ TEST_F(SamplePairsTest, PerPairFiguresAddUpToTheOverallOnes) {
 }
 
 TEST_F(SamplePairsTest, RectificationIsHorizontalWithOpenCvSigns) {
+    ASSERT_TRUE(Calibrated());
     const StereoCalibration& calibration = Calibration();
     const double focal = calibration.focal_px;
     EXPECT_EQ(focal, calibration.P1(0, 0));
@@ -102,6 +105,7 @@ TEST_F(SamplePairsTest, RectificationIsHorizontalWithOpenCvSigns) {
 }
 
 TEST_F(SamplePairsTest, BaselineScalesWithSquareSize) {
+    ASSERT_TRUE(Calibrated());
     const auto scaled = CalibrateFromChessboards(pairs_, {9, 6, 0.025});
     ASSERT_TRUE(scaled.ok()) << scaled.status();
     EXPECT_NEAR(scaled->baseline_m, 0.025 * Calibration().baseline_m, 1e-6);
@@ -184,6 +188,7 @@ TEST_F(SamplePairsTest, WorseFitThanAllowedIsFailedPrecondition) {
 // A token that can stop runs each board search on a thread of its own: while it never stops,
 // the calibration is the same to the last bit.
 TEST_F(SamplePairsTest, NeverStoppingTokenChangesNothing) {
+    ASSERT_TRUE(Calibrated());
     const CountingStop never(0);
     const auto result = CalibrateFromChessboards(pairs_, kBoard, {}, never.token());
     ASSERT_TRUE(result.ok()) << result.status();
@@ -226,6 +231,7 @@ TEST_F(SamplePairsTest, CancelAtAnyLookIsCancelled) {
 
 // Pairs beyond max_fit_pairs are left out of the fits and judged against their result.
 TEST_F(SamplePairsTest, PairsBeyondTheFitLimitAreJudgedAgainstTheFit) {
+    ASSERT_TRUE(Calibrated());
     CalibrationConfig config;
     config.max_fit_pairs = 7;
     const auto result = CalibrateFromChessboards(pairs_, kBoard, config);
