@@ -215,6 +215,7 @@ std::vector<Sample> GatherWindow(const Grid& grid, const CellBins& bins, const W
             for (int i = bins.start[k]; i < bins.start[k + 1]; ++i) {
                 const auto j = static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)]);
                 const Eigen::Vector3f& p = wp.points[j];
+                if (!std::isfinite(p.z())) continue;  // says nothing; would break the sort
                 const double dx = static_cast<double>(p.x()) - centre.x();
                 const double dy = static_cast<double>(p.y()) - centre.y();
                 samples.push_back({dx, dy, static_cast<double>(p.z()),
