@@ -161,6 +161,9 @@ void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream&
         &timings, "preprocess %.1f, align %.1f, volume %.1f, queue %.1f, total %.1f",
         t.preprocess_ms(), t.align_ms(), t.volume_ms(), t.queue_ms(), t.total_ms());
     Fields fields = {{"container id", e.container_id()}};
+    // The record kept (empty with skip_record or a server that keeps none).
+    fields.push_back(
+        {"estimate id", e.estimate_id().empty() ? "none (not recorded)" : e.estimate_id()});
     if (!e.request_id().empty()) fields.push_back({"request id", e.request_id()});
     fields.insert(
         fields.end(),

@@ -3,7 +3,8 @@
 # does nothing when all packages are present. Uses sudo when not run as root.
 # Extra groups (not in the images): `fuzz` adds clang and libFuzzer for scripts/fuzz.sh; `test`
 # adds what the tests drive the server with: Go and Debian's gRPC Go packages and protoc plugins
-# (client/examples/go) and Chromium (the browser test).
+# (client/examples/go), Chromium (the browser test) and protoc-gen-swagger (golang-grpc-gateway:
+# scripts/gen-openapi.sh and its drift check; the build only embeds the committed document).
 set -euo pipefail
 
 packages=(
@@ -12,7 +13,7 @@ packages=(
     libopencv-dev opencv-doc
     libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc grpc-proto
     libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev libsqlite3-dev libpqxx-dev
-    golang-github-gogo-googleapis-dev golang-grpc-gateway
+    golang-github-gogo-googleapis-dev
     python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl
     libgtest-dev libgmock-dev libbenchmark-dev
     clang-format shellcheck yamllint universal-ctags
@@ -25,7 +26,7 @@ for group in "$@"; do
             # well-known types lack the APIv2 methods (AsDuration) the Go example uses.
             packages+=(golang-go golang-google-grpc-dev golang-google-genproto-dev
                 golang-google-protobuf-dev golang-github-golang-protobuf-1-5-dev
-                protoc-gen-go protoc-gen-go-grpc chromium postgresql)
+                protoc-gen-go protoc-gen-go-grpc golang-grpc-gateway chromium postgresql)
             ;;
         *)
             echo "install-deps: unknown group '$group' (fuzz, test)" >&2

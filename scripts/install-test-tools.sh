@@ -6,6 +6,10 @@
 #   dclint             docker/compose.yaml schema + lint (scripts/check-static.sh)
 #   kubernetes-models  deploy/ schema validation         (tests/ship/check-deploy.sh)
 #   yaml               YAML parser of tests/ship/validate_k8s.js
+#   swagger2openapi    Swagger 2.0 -> OpenAPI 3.0 (scripts/gen-openapi.sh, the drift check)
+#   @apidevtools/swagger-parser  independent OpenAPI validator   (tests/integration/test_openapi_tools.py)
+#   openapi-typescript, openapi-fetch, typescript, @types/node  a client generated from /openapi.json and
+#                      run against a live server                 (tests/integration/test_openapi_tools.py)
 # Idempotent. Exits 0 without npm or the registry (a warning; test_buf.py skips itself), unless
 # SOILVOL_REQUIRE_TOOLS=1 (CI), where a missing tool is an error.
 set -uo pipefail
@@ -18,6 +22,12 @@ packages=(
     "dclint@3.1.0"
     "kubernetes-models@4.5.1"
     "yaml@2.9.1"
+    "swagger2openapi@7.0.8"
+    "@apidevtools/swagger-parser@12.1.0"
+    "openapi-typescript@7.13.0"
+    "openapi-fetch@0.17.0"
+    "typescript@5.9.3"
+    "@types/node@20.9.5"
 )
 wanted="${packages[*]}"
 
@@ -30,7 +40,8 @@ fail() {
     exit 0
 }
 
-if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$wanted" ] && [ -x "$tools_dir/node_modules/.bin/buf" ]; then
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$wanted" ] && [ -x "$tools_dir/node_modules/.bin/buf" ] &&
+    [ -x "$tools_dir/node_modules/.bin/openapi-typescript" ] && [ -x "$tools_dir/node_modules/.bin/tsc" ]; then
     echo "install-test-tools: $wanted already in $tools_dir"
     exit 0
 fi
@@ -42,5 +53,8 @@ if ! timeout 600 npm install --prefix "$tools_dir" --no-audit --no-fund --no-sav
     fail "npm install failed (is the npm registry reachable?)"
 fi
 "$tools_dir/node_modules/.bin/buf" --version >/dev/null 2>&1 || fail "buf was installed but does not run"
+for bin in openapi-typescript tsc; do
+    "$tools_dir/node_modules/.bin/$bin" --version >/dev/null 2>&1 || fail "$bin was installed but does not run"
+done
 echo "$wanted" >"$stamp"
 echo "install-test-tools: installed in $tools_dir"

@@ -52,6 +52,20 @@ TEST(PrintContainer, MeshRegistrationsSayTheirSource) {
         << out.str();
 }
 
+TEST(PrintEstimate, NamesTheRecordKeptOrSaysThereIsNone) {
+    v1::EstimateVolumeResponse e;
+    e.set_container_id("bin-3");
+    e.set_estimate_id("000000000042");
+    std::ostringstream out;
+    PrintEstimate(e, false, out);
+    EXPECT_NE(out.str().find("\nestimate id "), std::string::npos) << out.str();
+    EXPECT_NE(out.str().find(" 000000000042\n"), std::string::npos) << out.str();
+    e.clear_estimate_id();
+    out.str("");
+    PrintEstimate(e, false, out);
+    EXPECT_NE(out.str().find(" none (not recorded)\n"), std::string::npos) << out.str();
+}
+
 TEST(PrintContainerList, HasASigmaColumnAndTheWarningsByContainer) {
     v1::ListContainersResponse list;
     *list.add_containers() = WarnedContainer();
