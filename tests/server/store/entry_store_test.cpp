@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <string>
 #include <thread>
@@ -301,66 +302,90 @@ TEST_F(EntryStoreTest, TwoStoresSeeEachOthersWritesAndDeletes) {
     EXPECT_TRUE(store_->List(kContainer).empty());
 }
 
+// Runs `write(i)` on `n` threads released together; the index of the one that succeeded, -1
+// when none did. Every other must fail with `lost`; two winners fail the test.
+int OneWinnerAmongThreads(int n, absl::StatusCode lost,
+                          const std::function<absl::Status(int)>& write) {
+    std::atomic<int> ready{0};
+    std::vector<absl::Status> results(static_cast<std::size_t>(n));
+    std::vector<std::thread> threads;
+    for (int t = 0; t < n; ++t) {
+        threads.emplace_back([&, t] {
+            ++ready;
+            while (ready.load() < n) std::this_thread::yield();
+            results[static_cast<std::size_t>(t)] = write(t);
+        });
+    }
+    for (std::thread& t : threads) t.join();
+    int winner = -1;
+    for (int t = 0; t < n; ++t) {
+        const absl::Status& result = results[static_cast<std::size_t>(t)];
+        if (result.ok()) {
+            EXPECT_EQ(winner, -1) << "two winners";
+            winner = t;
+        } else {
+            EXPECT_EQ(result.code(), lost) << result;
+        }
+    }
+    return winner;
+}
+
+// Runs `write(i)` in `n` forked processes (each opening the store itself, as a replica would);
+// how many succeeded. A process whose write fails otherwise than with `lost` fails the test.
+int WinnersAmongProcesses(const fs::path& root, int n, absl::StatusCode lost,
+                          const std::function<absl::Status(EntryStore&, int)>& write) {
+    constexpr int kWon = 10;
+    constexpr int kLost = 11;
+    std::vector<pid_t> children;
+    for (int p = 0; p < n; ++p) {
+        const pid_t pid = ::fork();
+        if (pid < 0) ADD_FAILURE() << "fork failed";
+        if (pid == 0) {
+            auto store = EntryStore::Open(root);
+            if (!store.ok()) ::_exit(1);
+            const absl::Status s = write(**store, p);
+            ::_exit(s.ok() ? kWon : s.code() == lost ? kLost : 1);
+        }
+        children.push_back(pid);
+    }
+    int won = 0;
+    for (const pid_t pid : children) {
+        int status = 0;
+        EXPECT_EQ(::waitpid(pid, &status, 0), pid);
+        EXPECT_TRUE(WIFEXITED(status));
+        EXPECT_NE(WEXITSTATUS(status), 1) << "a write failed otherwise";
+        won += WEXITSTATUS(status) == kWon;
+    }
+    return won;
+}
+
 TEST_F(EntryStoreTest, RacingThreadsCreateExactlyOnce) {
-    constexpr int kThreads = 8;
     for (int round = 0; round < 20; ++round) {
         const std::string id = "race" + std::to_string(round);
-        std::atomic<int> ready{0};
-        std::vector<absl::Status> results(kThreads);
-        std::vector<std::thread> threads;
-        for (int t = 0; t < kThreads; ++t) {
-            threads.emplace_back([&, t] {
-                ++ready;
-                while (ready.load() < kThreads) std::this_thread::yield();
-                results[t] = store_->Put(kContainer, id, std::string(4096, 'a' + t), false);
-            });
-        }
-        for (std::thread& t : threads) t.join();
-        int winner = -1;
-        for (int t = 0; t < kThreads; ++t) {
-            if (results[t].ok()) {
-                EXPECT_EQ(winner, -1) << "two winners in round " << round;
-                winner = t;
-            } else {
-                EXPECT_EQ(results[t].code(), absl::StatusCode::kAlreadyExists) << results[t];
-            }
-        }
-        ASSERT_NE(winner, -1);
-        EXPECT_EQ(store_->Get(kContainer, id)->payload, std::string(4096, 'a' + winner));
+        const int winner = OneWinnerAmongThreads(8, absl::StatusCode::kAlreadyExists, [&](int t) {
+            return store_->Put(kContainer, id, std::string(4096, static_cast<char>('a' + t)),
+                               false);
+        });
+        ASSERT_NE(winner, -1) << "round " << round;
+        EXPECT_EQ(store_->Get(kContainer, id)->payload,
+                  std::string(4096, static_cast<char>('a' + winner)));
     }
     EXPECT_FALSE(HasTempFile(Containers()));
 }
 
 TEST_F(EntryStoreTest, RacingProcessesCreateExactlyOnce) {
-    constexpr int kProcesses = 4;
-    constexpr int kWon = 10;
-    constexpr int kLost = 11;
     for (int round = 0; round < 5; ++round) {
         const std::string id = "proc" + std::to_string(round);
-        std::vector<pid_t> children;
-        for (int p = 0; p < kProcesses; ++p) {
-            const pid_t pid = ::fork();
-            ASSERT_GE(pid, 0);
-            if (pid == 0) {
-                const absl::Status s =
-                    store_->Put(kContainer, id, std::string(1 << 16, 'p'), false);
-                ::_exit(s.ok() ? kWon : s.code() == absl::StatusCode::kAlreadyExists ? kLost : 1);
-            }
-            children.push_back(pid);
-        }
-        int won = 0;
-        for (const pid_t pid : children) {
-            int status = 0;
-            ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-            ASSERT_TRUE(WIFEXITED(status));
-            ASSERT_NE(WEXITSTATUS(status), 1);
-            won += WEXITSTATUS(status) == kWon;
-        }
-        EXPECT_EQ(won, 1) << "round " << round;
+        EXPECT_EQ(WinnersAmongProcesses(dir_.path(), 4, absl::StatusCode::kAlreadyExists,
+                                        [&](EntryStore& store, int) {
+                                            return store.Put(kContainer, id,
+                                                             std::string(1 << 16, 'p'), false);
+                                        }),
+                  1)
+            << "round " << round;
     }
     EXPECT_FALSE(HasTempFile(Containers()));
 }
-
 // The precondition of a compare-and-swap: the entry published now must hold `payload`.
 EntryStore::Precondition Holds(const std::string& payload) {
     return [payload](const absl::StatusOr<StoredEntry>& current) -> absl::Status {
@@ -386,38 +411,20 @@ TEST_F(EntryStoreTest, PutIfWritesOnlyWhatThePreconditionAccepts) {
     EXPECT_EQ(store_->List(kContainer), Ids{});  // the lock file is no entry
 }
 
-// Writers that all read version N and write N+1 conditionally: exactly one per version wins,
-// so the number of successes equals the number of versions (no lost update).
+// Writers that all read version N and write N+1 conditionally: exactly one per version wins
+// (no lost update).
 TEST_F(EntryStoreTest, RacingThreadsCompareAndSwapExactlyOnce) {
-    constexpr int kThreads = 8;
     ASSERT_TRUE(store_->Put(kContainer, "cas", "v0", false).ok());
     for (int round = 0; round < 20; ++round) {
         const std::string before = "v" + std::to_string(round);
-        std::atomic<int> ready{0};
-        std::vector<absl::Status> results(kThreads);
-        std::vector<std::thread> threads;
-        for (int t = 0; t < kThreads; ++t) {
-            threads.emplace_back([&, t] {
-                ++ready;
-                while (ready.load() < kThreads) std::this_thread::yield();
-                results[t] = store_->PutIf(
-                    kContainer, "cas", "v" + std::to_string(round + 1) + "." + std::to_string(t),
-                    Holds(before));
-            });
-        }
-        for (std::thread& t : threads) t.join();
-        int winner = -1;
-        for (int t = 0; t < kThreads; ++t) {
-            if (results[t].ok()) {
-                EXPECT_EQ(winner, -1) << "two winners in round " << round;
-                winner = t;
-            } else {
-                EXPECT_EQ(results[t].code(), absl::StatusCode::kAborted) << results[t];
-            }
-        }
-        ASSERT_NE(winner, -1);
-        const std::string after = "v" + std::to_string(round + 1) + "." + std::to_string(winner);
-        ASSERT_EQ(store_->Get(kContainer, "cas")->payload, after);
+        const auto version = [&](int t) {
+            return "v" + std::to_string(round + 1) + "." + std::to_string(t);
+        };
+        const int winner = OneWinnerAmongThreads(8, absl::StatusCode::kAborted, [&](int t) {
+            return store_->PutIf(kContainer, "cas", version(t), Holds(before));
+        });
+        ASSERT_NE(winner, -1) << "round " << round;
+        ASSERT_EQ(store_->Get(kContainer, "cas")->payload, version(winner));
         ASSERT_TRUE(store_->Put(kContainer, "cas", "v" + std::to_string(round + 1), true).ok());
     }
     EXPECT_FALSE(HasTempFile(Containers()));
@@ -425,34 +432,18 @@ TEST_F(EntryStoreTest, RacingThreadsCompareAndSwapExactlyOnce) {
 
 // The same across processes sharing the root, as replicas on one volume do.
 TEST_F(EntryStoreTest, RacingProcessesCompareAndSwapExactlyOnce) {
-    constexpr int kProcesses = 4;
-    constexpr int kWon = 10;
-    constexpr int kLost = 11;
     for (int round = 0; round < 5; ++round) {
         const std::string id = "proc" + std::to_string(round);
         ASSERT_TRUE(store_->Put(kContainer, id, "old", false).ok());
-        std::vector<pid_t> children;
-        for (int p = 0; p < kProcesses; ++p) {
-            const pid_t pid = ::fork();
-            ASSERT_GE(pid, 0);
-            if (pid == 0) {
-                auto store = EntryStore::Open(dir_.path());  // a process of its own
-                if (!store.ok()) ::_exit(1);
-                const absl::Status s = (*store)->PutIf(
-                    kContainer, id, std::string(1 << 16, static_cast<char>('a' + p)), Holds("old"));
-                ::_exit(s.ok() ? kWon : s.code() == absl::StatusCode::kAborted ? kLost : 1);
-            }
-            children.push_back(pid);
-        }
-        int won = 0;
-        for (const pid_t pid : children) {
-            int status = 0;
-            ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-            ASSERT_TRUE(WIFEXITED(status));
-            ASSERT_NE(WEXITSTATUS(status), 1);
-            won += WEXITSTATUS(status) == kWon;
-        }
-        EXPECT_EQ(won, 1) << "round " << round;
+        EXPECT_EQ(WinnersAmongProcesses(dir_.path(), 4, absl::StatusCode::kAborted,
+                                        [&](EntryStore& store, int p) {
+                                            return store.PutIf(
+                                                kContainer, id,
+                                                std::string(1 << 16, static_cast<char>('a' + p)),
+                                                Holds("old"));
+                                        }),
+                  1)
+            << "round " << round;
     }
     EXPECT_FALSE(HasTempFile(Containers()));
 }
