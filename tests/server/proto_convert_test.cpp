@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 namespace soilvol::server {
 namespace {
@@ -100,7 +101,7 @@ TEST(ProtoConvert, OpeningNeedsExactlyOneKindOfFourCorners) {
     ExpectInvalid(ToOpeningMarks(pixels, false).status(), "opening.pixel_corners");
     ASSERT_TRUE(ToOpeningMarks(pixels, true).ok());
     EXPECT_TRUE(std::holds_alternative<stereo::PixelCorners>(*ToOpeningMarks(pixels, true)));
-    pixels.mutable_pixel_corners(1)->set_v(INFINITY);
+    pixels.mutable_pixel_corners(1)->set_v(std::numeric_limits<double>::infinity());
     ExpectInvalid(ToOpeningMarks(pixels, true).status(), "opening.pixel_corners[1]");
     *pixels.add_corners() = v1::Point3();
     ExpectInvalid(ToOpeningMarks(pixels, true).status(), "opening");
