@@ -17,10 +17,19 @@ Cloud NoisyPlane(std::size_t n, std::size_t outliers, unsigned seed) {
     std::uniform_real_distribution<float> u(-0.5f, 0.5f);
     std::normal_distribution<float> noise(0.0f, 0.01f);
     Cloud cloud;
-    for (std::size_t i = 0; i < n; ++i) cloud.emplace_back(u(rng), u(rng), 2.5f + noise(rng));
+    // One draw per statement: the order of a call's arguments is the compiler's (GCC and clang
+    // differ), the cloud must not be.
+    for (std::size_t i = 0; i < n; ++i) {
+        const float x = u(rng);
+        const float y = u(rng);
+        cloud.emplace_back(x, y, 2.5f + noise(rng));
+    }
     std::uniform_real_distribution<float> far(-1.5f, 1.5f);
-    for (std::size_t i = 0; i < outliers; ++i)
-        cloud.emplace_back(far(rng), far(rng), 2.5f + far(rng));
+    for (std::size_t i = 0; i < outliers; ++i) {
+        const float x = far(rng);
+        const float y = far(rng);
+        cloud.emplace_back(x, y, 2.5f + far(rng));
+    }
     return cloud;
 }
 
@@ -35,14 +44,26 @@ double BruteForceMean(const Cloud& cloud, std::size_t i, int k) {
     return sum / k;
 }
 
+// Exact where the k nearest lie within the searched blocks, a lower bound elsewhere. On this
+// surface (density rho) the blocks reach 2h with pi h^2 rho = 1.44 k, so a point has fewer than
+// k neighbours there with the Poisson probability P(N < k; 5.76 k): 0.3% for k = 1, below 1e-9
+// for k = 8. The test allows 2% inexact at k = 1 (an 8-sigma margin over 430 points) and none
+// beyond.
 TEST(OutlierFilterTest, MeanNeighborDistancesAreExactOnTheSurface) {
     const Cloud cloud = NoisyPlane(3000, 60, 7);
     for (const int k : {1, 8, 16}) {
         const std::vector<float> mean = MeanNeighborDistances(cloud, k, 2);
-        for (std::size_t i = 0; i < 3000; i += 37) {
-            EXPECT_NEAR(mean[i], BruteForceMean(cloud, i, k), 1e-5) << "point " << i << " k " << k;
+        int sampled = 0, inexact = 0;
+        for (std::size_t i = 0; i < 3000; i += 7) {
+            const double exact = BruteForceMean(cloud, i, k);
+            EXPECT_LE(static_cast<double>(mean[i]), exact + 1e-5) << "point " << i << " k " << k;
+            ++sampled;
+            inexact += std::abs(static_cast<double>(mean[i]) - exact) >= 1e-5;
         }
-        // Isolated outliers get a lower bound, still far above a typical surface point's mean.
+        EXPECT_LE(inexact, k == 1 ? sampled / 50 : 0) << "k " << k;
+        // Isolated outliers get a lower bound, at least 2h: in theory 2.9x the surface's median
+        // at k = 1 and more beyond, 2.0x measured at k = 1 (the voxel count reads this noisy
+        // surface's density high, so h comes out smaller). Asked: 1.5x.
         std::vector<float> surface(mean.begin(), mean.begin() + 3000);
         std::nth_element(surface.begin(), surface.begin() + 1500, surface.end());
         const float surface_median = surface[1500];
@@ -50,8 +71,8 @@ TEST(OutlierFilterTest, MeanNeighborDistancesAreExactOnTheSurface) {
             const double exact = BruteForceMean(cloud, i, k);
             EXPECT_LE(static_cast<double>(mean[i]), exact + 1e-5) << "outlier " << i;
             EXPECT_TRUE(std::abs(static_cast<double>(mean[i]) - exact) < 1e-5 ||
-                        mean[i] > 2.0f * surface_median)
-                << "outlier " << i;
+                        mean[i] > 1.5f * surface_median)
+                << "outlier " << i << " k " << k;
         }
     }
 }
