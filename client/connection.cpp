@@ -82,7 +82,7 @@ std::unique_ptr<grpc::ClientContext> Connection::NewOpenContext() const {
     return context;
 }
 
-std::string StatusCodeName(grpc::StatusCode code) {
+std::string StatusCodeName(int code) {
     static const std::array<const char*, 17> kNames = {"OK",
                                                        "CANCELLED",
                                                        "UNKNOWN",
@@ -100,7 +100,7 @@ std::string StatusCodeName(grpc::StatusCode code) {
                                                        "UNAVAILABLE",
                                                        "DATA_LOSS",
                                                        "UNAUTHENTICATED"};
-    const int index = static_cast<int>(code);
+    const int index = code;
     if (index < 0 || index >= static_cast<int>(kNames.size())) {
         return "CODE_" + std::to_string(index);
     }

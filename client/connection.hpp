@@ -57,8 +57,9 @@ class Connection {
     std::unique_ptr<grpc::health::v1::Health::Stub> health_;
 };
 
-/// The canonical name of a gRPC status code ("NOT_FOUND").
-std::string StatusCodeName(grpc::StatusCode code);
+/// The canonical name of a gRPC status code ("NOT_FOUND"), CODE_<n> past the known ones; an int,
+/// as it came off the wire (a value past grpc::StatusCode is no value of that enum).
+std::string StatusCodeName(int code);
 
 /// Prints `error: <CODE_NAME>: <message>` to stderr and returns kExitRpcError.
 int ReportRpcError(const grpc::Status& status);
