@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package soilvol's build and tests need. Idempotent and non-interactive:
 # does nothing when all packages are present. Uses sudo when not run as root.
-# Extra groups (not in the images): `fuzz` adds clang and libFuzzer for scripts/fuzz.sh; `test`
+# Extra groups (not in the images): `fuzz` adds clang, lld and libFuzzer for scripts/fuzz.sh; `test`
 # adds what the tests drive the server with: Go and Debian's gRPC Go packages and protoc plugins
 # (client/examples/go), Chromium (the browser test) and protoc-gen-swagger (golang-grpc-gateway:
 # scripts/gen-openapi.sh and its drift check; the build only embeds the committed document).
@@ -20,7 +20,7 @@ packages=(
 )
 for group in "$@"; do
     case "$group" in
-        fuzz) packages+=(clang libfuzzer-14-dev libomp-14-dev) ;;
+        fuzz) packages+=(clang lld libfuzzer-14-dev libomp-14-dev) ;;
         test)
             # golang-google-grpc-dev accepts either golang/protobuf; apt may pick 1.3, whose
             # well-known types lack the APIv2 methods (AsDuration) the Go example uses.
