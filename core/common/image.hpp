@@ -21,4 +21,15 @@ struct RgbImage {
     std::vector<uint8_t> pixels;
 };
 
+/// One number per pixel (a depth, a confidence or an amplitude image), row-major, as the file
+/// stored it: `bits` is 8 or 16 (unsigned integers) or 32 (float).
+struct ScalarImage {
+    int width = 0;
+    int height = 0;
+    int bits = 0;
+    std::vector<float> values;
+
+    float At(int u, int v) const { return values[static_cast<size_t>(v) * width + u]; }
+};
+
 }  // namespace soilvol

@@ -1,5 +1,6 @@
 #include "core/stereo/image_codec.hpp"
 
+#include <algorithm>
 #include <new>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -15,6 +16,46 @@ absl::StatusOr<GreyImage> DecodeGrey(std::string_view bytes, std::string_view fi
     absl::StatusOr<cv::Mat> grey = detail::DecodeGreyMat(bytes, field, max_side_px);
     if (!grey.ok()) return grey.status();
     return detail::ToGreyImage(*grey);
+}
+
+absl::StatusOr<ScalarImage> DecodeScalar(std::string_view bytes, std::string_view field,
+                                         int max_side_px) {
+    absl::StatusOr<cv::Mat> decoded = detail::DecodeMat(bytes, field, max_side_px);
+    if (!decoded.ok()) return decoded.status();
+    const absl::string_view name(field.data(), field.size());
+    if (decoded->channels() != 1) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            name, ": ", decoded->channels(), " channels; a depth or confidence image has one"));
+    }
+    ScalarImage image{decoded->cols, decoded->rows, 0, {}};
+    switch (decoded->depth()) {
+        case CV_8U:
+            image.bits = 8;
+            break;
+        case CV_16U:
+            image.bits = 16;
+            break;
+        case CV_32F:
+            image.bits = 32;
+            break;
+        default:
+            return absl::InvalidArgumentError(
+                absl::StrCat(name, ": samples must be 8 or 16-bit unsigned or 32-bit float"));
+    }
+    try {
+        cv::Mat values;
+        decoded->convertTo(values, CV_32F);
+        image.values.resize(static_cast<size_t>(values.cols) * values.rows);
+        for (int v = 0; v < values.rows; ++v) {
+            const float* row = values.ptr<float>(v);
+            std::copy(row, row + values.cols,
+                      image.values.begin() + static_cast<size_t>(v) * values.cols);
+        }
+    } catch (const std::bad_alloc&) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": too large to decode (out of memory)"));
+    }
+    return image;
 }
 
 absl::StatusOr<std::string> EncodePng(const RgbImage& image) {

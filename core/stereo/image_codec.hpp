@@ -21,6 +21,12 @@ inline constexpr std::int64_t kMaxImagePixels = 24'000'000;
 absl::StatusOr<GreyImage> DecodeGrey(std::string_view bytes, std::string_view field,
                                      int max_side_px = 8192);
 
+/// Decodes a one-channel image as stored, for depth, confidence and amplitude images: 8 or
+/// 16-bit unsigned (PNG, TIFF, PNM) or 32-bit float (TIFF). Size checks as DecodeGrey's;
+/// InvalidArgument naming `field` for more than one channel or another sample type.
+absl::StatusOr<ScalarImage> DecodeScalar(std::string_view bytes, std::string_view field,
+                                         int max_side_px = 8192);
+
 /// Lossless PNG of `image`. InvalidArgument for an empty or inconsistent image.
 absl::StatusOr<std::string> EncodePng(const GreyImage& image);
 absl::StatusOr<std::string> EncodePng(const RgbImage& image);

@@ -74,8 +74,8 @@ GreyImage ToGreyImage(const cv::Mat& grey) {
     return image;
 }
 
-absl::StatusOr<cv::Mat> DecodeGreyMat(std::string_view bytes, std::string_view field,
-                                      int max_side_px, bool* too_large) {
+absl::StatusOr<cv::Mat> DecodeMat(std::string_view bytes, std::string_view field, int max_side_px,
+                                  bool* too_large) {
     const absl::string_view name(field.data(), field.size());
     bool unused = false;
     if (too_large == nullptr) too_large = &unused;
@@ -100,13 +100,13 @@ absl::StatusOr<cv::Mat> DecodeGreyMat(std::string_view bytes, std::string_view f
     try {
         const cv::Mat raw(1, static_cast<int>(std::min<size_t>(bytes.size(), INT32_MAX)), CV_8UC1,
                           const_cast<char*>(bytes.data()));
-        const cv::Mat decoded = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
+        cv::Mat decoded = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
         if (decoded.empty() || decoded.dims != 2) return undecodable;
         if (decoded.cols > max_side_px || decoded.rows > max_side_px) {
             *too_large = true;
             return TooLarge(name, decoded.cols, decoded.rows, max_side_px);
         }
-        return ToGrey(decoded, name);
+        return decoded;
     } catch (const cv::Exception&) {
         return undecodable;
     } catch (const std::bad_alloc&) {
@@ -114,6 +114,21 @@ absl::StatusOr<cv::Mat> DecodeGreyMat(std::string_view bytes, std::string_view f
             absl::StrCat(name, ": too large to decode (out of memory)"));
     } catch (const std::exception&) {
         return undecodable;
+    }
+}
+
+absl::StatusOr<cv::Mat> DecodeGreyMat(std::string_view bytes, std::string_view field,
+                                      int max_side_px, bool* too_large) {
+    absl::StatusOr<cv::Mat> decoded = DecodeMat(bytes, field, max_side_px, too_large);
+    if (!decoded.ok()) return decoded.status();
+    const absl::string_view name(field.data(), field.size());
+    try {
+        return ToGrey(*decoded, name);
+    } catch (const std::bad_alloc&) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": too large to decode (out of memory)"));
+    } catch (const std::exception&) {
+        return absl::InvalidArgumentError(absl::StrCat(name, ": cannot convert to grey"));
     }
 }
 
