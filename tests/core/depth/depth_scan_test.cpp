@@ -126,7 +126,8 @@ TEST(DepthScanTest, DroppedPixelsAreCountedByReason) {
 }
 
 // Found by fuzz_depth_scan: a range image seen through 1-px focal lengths (rays far off the
-// axis) and the smallest sub-normal depths gave NaN and zero z-depths that were neither kept nor counted.
+// axis) and the smallest sub-normal depths gave NaN and zero z-depths that were neither kept
+// nor counted.
 TEST(DepthScanTest, EveryPixelIsKeptOrCountedOnceWhateverTheNumbers) {
     DepthCamera camera;
     camera.intrinsics = {1.0, 1.0, 0.0, 0.0, {}};
