@@ -196,6 +196,15 @@ void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream&
                                    cells.interpolated(), cells.with_soil())},
          {"points", absl::StrFormat("%d in scan, %d used", e.scan_points(), e.used_points())},
          {"container pose", PoseText(e.container_pose())}});
+    if (e.has_depth_pixels()) {
+        const v1::DepthPixels& p = e.depth_pixels();
+        fields.push_back(
+            {"depth pixels",
+             absl::StrFormat("%d of %d back-projected; dropped: %d no return, %d low confidence, "
+                             "%d out of range, %d no ray, %d flying",
+                             p.points(), p.pixels(), p.no_return(), p.low_confidence(),
+                             p.out_of_range(), p.no_ray(), p.flying())});
+    }
     if (e.has_pose_difference()) {
         const v1::PoseDifference& d = e.pose_difference();
         fields.push_back({"from the given pose",

@@ -1,9 +1,90 @@
 #include "client/scan_options.hpp"
 
+#include <utility>
+#include <vector>
+
 #include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
 #include "client/input_files.hpp"
 
 namespace soilvol::client {
+namespace {
+
+// The --depth option and its camera; returns --depth.
+CLI::Option* AddDepthOptions(CLI::App* command, DepthOptions* options, const std::string& what) {
+    auto* depth = command->add_option(
+        "--depth", options->depth,
+        what + ": depth image (16-bit PNG/TIFF/PGM in --depth-unit, default mm; float TIFF, m)");
+    auto* intrinsics =
+        command->add_option("--intrinsics", options->intrinsics, "depth camera fx,fy,cx,cy [px]")
+            ->delimiter(',')
+            ->expected(4);
+    const std::vector<CLI::Option*> extras = {
+        command->add_option("--confidence", options->confidence,
+                            "confidence or amplitude image of the depth image's size"),
+        command->add_option("--min-confidence", options->min_confidence,
+                            "drop pixels whose confidence is below this (as stored)"),
+        command->add_option("--lens", options->lens, "pinhole, brown-conrady or kannala-brandt")
+            ->check(CLI::IsMember({"pinhole", "brown-conrady", "kannala-brandt"})),
+        command
+            ->add_option("--distortion", options->distortion, "lens coefficients in OpenCV's order")
+            ->delimiter(','),
+        command->add_option(
+            "--depth-unit", options->unit_m,
+            "metres per stored depth unit (default: 0.001 for 16-bit, 1 for float)"),
+        command->add_option("--depth-noise", options->noise_m,
+                            "depth noise, 1 sigma [m], for the flying-pixel filter (0.005)"),
+        command->add_flag("--range-image", options->range,
+                          "the depth image holds range along each ray, not z-depth"),
+        command->add_flag("--keep-flying-pixels", options->keep_flying,
+                          "keep the mixed returns at depth edges"),
+    };
+    depth->needs(intrinsics);
+    intrinsics->needs(depth);
+    for (CLI::Option* option : extras) option->needs(depth);
+    return depth;
+}
+
+absl::StatusOr<v1::LensModel> LensOf(const std::string& name) {
+    if (name == "pinhole") return v1::LENS_MODEL_PINHOLE;
+    if (name == "brown-conrady") return v1::LENS_MODEL_BROWN_CONRADY;
+    if (name == "kannala-brandt") return v1::LENS_MODEL_KANNALA_BRANDT;
+    return absl::InvalidArgumentError(
+        absl::StrCat("--lens: '", name, "' is not pinhole, brown-conrady or kannala-brandt"));
+}
+
+absl::StatusOr<v1::Scan> BuildDepthScan(const DepthOptions& options) {
+    if (options.intrinsics.size() != 4) {
+        return absl::InvalidArgumentError("--depth needs --intrinsics fx,fy,cx,cy");
+    }
+    v1::Scan scan;
+    v1::DepthScan* depth = scan.mutable_depth();
+    absl::StatusOr<std::string> image = ReadFile(options.depth);
+    if (!image.ok()) return image.status();
+    depth->set_depth(*std::move(image));
+    if (!options.confidence.empty()) {
+        absl::StatusOr<std::string> confidence = ReadFile(options.confidence);
+        if (!confidence.ok()) return confidence.status();
+        depth->set_confidence(*std::move(confidence));
+    }
+    depth->set_min_confidence(options.min_confidence);
+    depth->set_depth_noise_m(options.noise_m);
+    depth->set_keep_flying_pixels(options.keep_flying);
+    v1::DepthCamera* camera = depth->mutable_camera();
+    camera->set_fx(options.intrinsics[0]);
+    camera->set_fy(options.intrinsics[1]);
+    camera->set_cx(options.intrinsics[2]);
+    camera->set_cy(options.intrinsics[3]);
+    absl::StatusOr<v1::LensModel> lens = LensOf(options.lens);
+    if (!lens.ok()) return lens.status();
+    camera->set_lens(*lens);
+    for (double c : options.distortion) camera->add_distortion(c);
+    camera->set_meaning(options.range ? v1::DEPTH_MEANING_RANGE : v1::DEPTH_MEANING_Z);
+    camera->set_depth_unit_m(options.unit_m);
+    return scan;
+}
+
+}  // namespace
 
 void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& what) {
     auto* cloud =
@@ -17,6 +98,8 @@ void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& 
     left->needs(right, calibration);
     right->needs(left, calibration);
     calibration->needs(left, right);
+    CLI::Option* depth = AddDepthOptions(command, &options->depth, what);
+    for (auto* other : {cloud, left, right, calibration}) other->excludes(depth);
 }
 
 absl::StatusOr<v1::Scan> BuildScan(const ScanOptions& options) {
@@ -27,9 +110,11 @@ absl::StatusOr<v1::Scan> BuildScan(const ScanOptions& options) {
         scan.mutable_cloud()->set_data(*std::move(data));
         return scan;
     }
+    if (!options.depth.depth.empty()) return BuildDepthScan(options.depth);
     if (options.left.empty() || options.right.empty() || options.calibration.empty()) {
         return absl::InvalidArgumentError(
-            "a scan needs --cloud FILE or --left FILE --right FILE --calibration ID");
+            "a scan needs --cloud FILE, --left FILE --right FILE --calibration ID, or --depth "
+            "FILE --intrinsics fx,fy,cx,cy");
     }
     absl::StatusOr<std::string> left = ReadFile(options.left);
     if (!left.ok()) return left.status();

@@ -2,25 +2,44 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "soilvol/v1/soilvol.pb.h"
 
 namespace soilvol::client {
 
-/// Where a scan comes from: a point cloud file, or a stereo pair with its calibration id.
+/// A depth image's camera and filter options, as flags.
+struct DepthOptions {
+    std::string depth;
+    std::string confidence;
+    std::vector<double> intrinsics;  ///< fx, fy, cx, cy [px]
+    std::string lens = "pinhole";
+    std::vector<double> distortion;
+    bool range = false;
+    double unit_m = 0.0;
+    double min_confidence = 0.0;
+    double noise_m = 0.0;
+    bool keep_flying = false;
+};
+
+/// Where a scan comes from: a point cloud file, a stereo pair with its calibration id, or a
+/// depth image with its camera.
 struct ScanOptions {
     std::string cloud;
     std::string left;
     std::string right;
     std::string calibration;
+    DepthOptions depth;
 };
 
-/// Adds --cloud | (--left --right --calibration) to `command`; `what` says which scan it is.
+/// Adds --cloud | (--left --right --calibration) | (--depth --intrinsics ...) to `command`;
+/// `what` says which scan it is.
 void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& what);
 
 /// Reads the files into a Scan. InvalidArgument for a missing source, an incomplete stereo
-/// triple or an unreadable file (naming it).
+/// triple, a depth image without its intrinsics, an unknown lens or an unreadable file (naming
+/// it).
 absl::StatusOr<v1::Scan> BuildScan(const ScanOptions& options);
 
 }  // namespace soilvol::client

@@ -63,18 +63,21 @@ absl::Status CheckSameSensor(const std::string& container_id, ScanKind registere
                              const std::string& scan_calibration) {
     switch (scan) {
         case ScanKind::kCloud:
+        case ScanKind::kDepth:
+            // Clouds and depth images are both points in the sensor's frame.
             if (registered == ScanKind::kStereo) {
-                return absl::FailedPreconditionError(
-                    absl::StrCat("scan.cloud: container '", container_id,
-                                 "' was registered from stereo pairs (calibration '",
-                                 registered_calibration, "'); send a stereo scan"));
+                return absl::FailedPreconditionError(absl::StrCat(
+                    scan == ScanKind::kDepth ? "scan.depth" : "scan.cloud", ": container '",
+                    container_id, "' was registered from stereo pairs (calibration '",
+                    registered_calibration, "'); send a stereo scan"));
             }
             return absl::OkStatus();
         case ScanKind::kStereo:
-            if (registered == ScanKind::kCloud) {
-                return absl::FailedPreconditionError(
-                    absl::StrCat("scan.stereo: container '", container_id,
-                                 "' was registered from a point cloud; send a cloud scan"));
+            if (registered != ScanKind::kStereo) {
+                return absl::FailedPreconditionError(absl::StrCat(
+                    "scan.stereo: container '", container_id,
+                    "' was registered from a point cloud or depth image; send a cloud or depth "
+                    "scan"));
             }
             if (!scan_calibration.empty() && scan_calibration != registered_calibration) {
                 return absl::FailedPreconditionError(absl::StrCat(

@@ -41,7 +41,7 @@ absl::StatusOr<EstimateConfig> ConfigureEstimate(const EstimateRequest& request,
                                                  const EstimatePolicy& policy = {});
 
 /// How a scan or a registration was taken: the model lives in that sensor's frame.
-enum class ScanKind { kCloud, kStereo };
+enum class ScanKind { kCloud, kStereo, kDepth };
 
 /// A scan must come from the kind of sensor the container was registered from and, for stereo,
 /// through the same calibration (`scan_calibration` empty: the container's own).

@@ -58,6 +58,34 @@ absl::StatusOr<ScalarImage> DecodeScalar(std::string_view bytes, std::string_vie
     return image;
 }
 
+absl::StatusOr<std::string> EncodeScalar(const ScalarImage& image) {
+    if (image.width <= 0 || image.height <= 0 ||
+        image.values.size() != static_cast<size_t>(image.width) * image.height) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "image: ", image.values.size(), " values for ", image.width, "x", image.height));
+    }
+    const int type = image.bits == 8 ? CV_8U : image.bits == 16 ? CV_16U : CV_32F;
+    if (image.bits != 8 && image.bits != 16 && image.bits != 32) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("image: ", image.bits, " bits (8, 16 or 32)"));
+    }
+    try {
+        const cv::Mat floats(image.height, image.width, CV_32F,
+                             const_cast<float*>(image.values.data()));
+        cv::Mat stored;
+        floats.convertTo(stored, type);  // rounds and saturates integers
+        std::vector<uchar> bytes;
+        if (!cv::imencode(image.bits == 32 ? ".tiff" : ".png", stored, bytes)) {
+            return absl::InternalError("image: encoder failed");
+        }
+        return std::string(bytes.begin(), bytes.end());
+    } catch (const std::bad_alloc&) {
+        return absl::ResourceExhaustedError("image: out of memory encoding");
+    } catch (const std::exception& e) {
+        return absl::InternalError(absl::StrCat("image: encoder failed: ", e.what()));
+    }
+}
+
 absl::StatusOr<std::string> EncodePng(const RgbImage& image) {
     if (image.width <= 0 || image.height <= 0 ||
         image.pixels.size() != static_cast<size_t>(image.width) * image.height * 3) {

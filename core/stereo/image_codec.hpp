@@ -27,6 +27,11 @@ absl::StatusOr<GreyImage> DecodeGrey(std::string_view bytes, std::string_view fi
 absl::StatusOr<ScalarImage> DecodeScalar(std::string_view bytes, std::string_view field,
                                          int max_side_px = 8192);
 
+/// Lossless encoding of a one-channel image as its `bits` say: 8 or 16 bits as PNG (values
+/// rounded and clamped to the type), 32 as float TIFF. InvalidArgument for an empty or
+/// inconsistent image or other bits.
+absl::StatusOr<std::string> EncodeScalar(const ScalarImage& image);
+
 /// Lossless PNG of `image`. InvalidArgument for an empty or inconsistent image.
 absl::StatusOr<std::string> EncodePng(const GreyImage& image);
 absl::StatusOr<std::string> EncodePng(const RgbImage& image);

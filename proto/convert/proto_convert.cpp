@@ -48,7 +48,73 @@ v1::Point3* AddPoint(const Eigen::Vector3d& p,
     return point;
 }
 
+absl::StatusOr<depth::LensModel> ToLensModel(v1::LensModel lens, const std::string& field) {
+    switch (lens) {
+        case v1::LENS_MODEL_UNSPECIFIED:
+        case v1::LENS_MODEL_PINHOLE:
+            return depth::LensModel::kPinhole;
+        case v1::LENS_MODEL_BROWN_CONRADY:
+            return depth::LensModel::kBrownConrady;
+        case v1::LENS_MODEL_KANNALA_BRANDT:
+            return depth::LensModel::kKannalaBrandt;
+        default:
+            return absl::InvalidArgumentError(
+                absl::StrCat(field, ": unknown value ", static_cast<int>(lens)));
+    }
+}
+
+absl::StatusOr<depth::DepthMeaning> ToDepthMeaning(v1::DepthMeaning meaning,
+                                                   const std::string& field) {
+    switch (meaning) {
+        case v1::DEPTH_MEANING_UNSPECIFIED:
+        case v1::DEPTH_MEANING_Z:
+            return depth::DepthMeaning::kZ;
+        case v1::DEPTH_MEANING_RANGE:
+            return depth::DepthMeaning::kRange;
+        default:
+            return absl::InvalidArgumentError(
+                absl::StrCat(field, ": unknown value ", static_cast<int>(meaning)));
+    }
+}
+
 }  // namespace
+
+absl::StatusOr<DepthScanOptions> ToDepthScanOptions(const v1::DepthScan& proto,
+                                                    const std::string& field) {
+    DepthScanOptions out;
+    const v1::DepthCamera& camera = proto.camera();
+    out.camera.intrinsics = {camera.fx(),
+                             camera.fy(),
+                             camera.cx(),
+                             camera.cy(),
+                             {camera.distortion().begin(), camera.distortion().end()}};
+    SOILVOL_ASSIGN_OR_RETURN(out.camera.lens, ToLensModel(camera.lens(), field + ".camera.lens"));
+    SOILVOL_ASSIGN_OR_RETURN(out.camera.meaning,
+                             ToDepthMeaning(camera.meaning(), field + ".camera.meaning"));
+    out.camera.depth_unit_m = camera.depth_unit_m();
+    if (!std::isfinite(proto.min_confidence())) {
+        return absl::InvalidArgumentError(absl::StrCat(field, ".min_confidence: must be finite"));
+    }
+    out.config.min_confidence = proto.min_confidence();
+    const double noise = proto.depth_noise_m();
+    if (!std::isfinite(noise) || noise < 0.0 || noise > 1.0) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(field, ".depth_noise_m: must be in [0, 1] m (0: 0.005), got ", noise));
+    }
+    if (noise > 0.0) out.config.flying.noise_m = noise;
+    out.config.flying.enabled = !proto.keep_flying_pixels();
+    return out;
+}
+
+void ToProto(const depth::DepthScanCounts& counts, std::size_t points, v1::DepthPixels* proto) {
+    proto->set_pixels(static_cast<int64_t>(counts.pixels));
+    proto->set_no_return(static_cast<int64_t>(counts.no_return));
+    proto->set_low_confidence(static_cast<int64_t>(counts.low_confidence));
+    proto->set_out_of_range(static_cast<int64_t>(counts.out_of_range));
+    proto->set_no_ray(static_cast<int64_t>(counts.no_ray));
+    proto->set_flying(static_cast<int64_t>(counts.flying));
+    proto->set_points(static_cast<int64_t>(points));
+}
 
 absl::StatusOr<StereoParameters> ToStereoParameters(const v1::StereoParameters& proto,
                                                     const std::string& field) {

@@ -5,6 +5,7 @@
 #include "absl/status/statusor.h"
 #include "core/common/camera.hpp"
 #include "core/common/types.hpp"
+#include "core/depth/depth_scan.hpp"
 #include "core/model/container_model.hpp"
 #include "core/pipeline/stereo_estimator.hpp"
 #include "core/stereo/calibration.hpp"
@@ -18,6 +19,14 @@ namespace soilvol::server {
 absl::StatusOr<StereoParameters> ToStereoParameters(const v1::StereoParameters& proto,
                                                     const std::string& field);
 absl::StatusOr<stereo::ChessboardSpec> ToChessboardSpec(const v1::ChessboardCalibration& proto);
+/// A depth scan's camera and filter options (enums checked here; the numbers are checked
+/// against the image by core's ValidateDepthCamera).
+struct DepthScanOptions {
+    depth::DepthCamera camera;
+    depth::DepthScanConfig config;
+};
+absl::StatusOr<DepthScanOptions> ToDepthScanOptions(const v1::DepthScan& proto,
+                                                    const std::string& field);
 /// Exactly four 3D corners or four pixel corners; pixel corners only when `stereo_scan`.
 absl::StatusOr<pipeline::OpeningMarks> ToOpeningMarks(const v1::Opening& proto, bool stereo_scan);
 
@@ -44,6 +53,7 @@ google::protobuf::Timestamp NowTimestamp();
 absl::StatusOr<std::string> HeightmapPng(const v1::EstimateVolumeResponse& estimate, int cell_px);
 
 /// Core -> proto.
+void ToProto(const depth::DepthScanCounts& counts, std::size_t points, v1::DepthPixels* proto);
 void ToProto(const StereoParameters& parameters, v1::StereoParameters* proto);
 void ToProto(const stereo::StereoCalibration& calibration, v1::Calibration* proto);
 /// The model's figures; ids, provenance and time are the caller's.

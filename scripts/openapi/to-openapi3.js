@@ -15,8 +15,8 @@ const VERBS = ["get", "put", "post", "delete", "options", "head", "patch"];
 // Files a body "*" route takes as application/octet-stream or multipart parts (server/README.md,
 // Binary uploads; server/http_routes.cpp kFiles), by operation.
 const UPLOADS = {
-    RegisterContainer: ["cloud", "left", "right", "mesh"],
-    EstimateVolume: ["cloud", "left", "right"],
+    RegisterContainer: ["cloud", "left", "right", "depth", "confidence", "mesh"],
+    EstimateVolume: ["cloud", "left", "right", "depth", "confidence"],
 };
 const WATCH = "WatchEstimates";
 
@@ -85,7 +85,9 @@ function addUploads(doc, op, route) {
     for (const name of files) {
         parts[name] = {type: "string", format: "binary",
                        description: {cloud: "scan.cloud.data", left: "scan.stereo.left",
-                                     right: "scan.stereo.right", mesh: "mesh.data"}[name]};
+                                     right: "scan.stereo.right", depth: "scan.depth.depth",
+                                     confidence: "scan.depth.confidence",
+                                     mesh: "mesh.data"}[name]};
     }
     op.requestBody.content["multipart/form-data"] = {
         schema: {type: "object", properties: parts,
@@ -100,7 +102,8 @@ function addUploads(doc, op, route) {
     op.parameters.push({
         name: "file", in: "query", required: false,
         description: `Which file an application/octet-stream body is. ${only}`,
-        schema: {type: "string", enum: files.filter((f) => f !== "left" && f !== "right"),
+        schema: {type: "string",
+                 enum: files.filter((f) => !["left", "right", "confidence"].includes(f)),
                  default: "cloud"},
     });
     for (const [name, property] of Object.entries(scalarProperties(doc, json.schema))) {

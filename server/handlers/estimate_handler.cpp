@@ -23,12 +23,28 @@ pipeline::ScanKind KindOf(v1::ScanKind kind) {
     switch (kind) {
         case v1::SCAN_KIND_STEREO:
             return pipeline::ScanKind::kStereo;
+        case v1::SCAN_KIND_DEPTH:
+            return pipeline::ScanKind::kDepth;
         case v1::SCAN_KIND_UNSPECIFIED:
         case v1::SCAN_KIND_CLOUD:
         case v1::SCAN_KIND_MESH:
         default:
             return pipeline::ScanKind::kCloud;
     }
+}
+
+/// What a scan is (its source must be set).
+pipeline::ScanKind ScanKindOf(const v1::Scan& scan) {
+    switch (scan.source_case()) {
+        case v1::Scan::kStereo:
+            return pipeline::ScanKind::kStereo;
+        case v1::Scan::kDepth:
+            return pipeline::ScanKind::kDepth;
+        case v1::Scan::kCloud:
+        case v1::Scan::SOURCE_NOT_SET:
+            break;
+    }
+    return pipeline::ScanKind::kCloud;
 }
 
 /// The request's options for core, which checks them against the container.
@@ -65,10 +81,9 @@ absl::StatusOr<pipeline::EstimateRequest> EstimateRequestOf(
 /// The model lives in the frame of the sensor it was registered from (core's rule).
 absl::Status CheckSameSensor(const v1::Scan& scan, const v1::Container& container) {
     if (scan.source_case() == v1::Scan::SOURCE_NOT_SET) return absl::OkStatus();  // DecodeScan's
-    return pipeline::CheckSameSensor(
-        container.container_id(), KindOf(container.registered_from()), container.calibration_id(),
-        scan.has_stereo() ? pipeline::ScanKind::kStereo : pipeline::ScanKind::kCloud,
-        scan.stereo().calibration_id());
+    return pipeline::CheckSameSensor(container.container_id(), KindOf(container.registered_from()),
+                                     container.calibration_id(), ScanKindOf(scan),
+                                     scan.stereo().calibration_id());
 }
 
 /// Queue and total time into the response, every stage that ran into the call's record.
@@ -129,6 +144,9 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
         RunEstimate(*container, scan, config, response->mutable_timings(), record.stop));
 
     ToProto(estimate, response);
+    if (scan.depth_counts) {
+        ToProto(*scan.depth_counts, scan.depth_points, response->mutable_depth_pixels());
+    }
     response->mutable_coverage()->set_capacity_uncertainty_m3(
         container->model.struck_capacity_sigma_m3);
     // The record keeps the heightmap even when the answer omits it.

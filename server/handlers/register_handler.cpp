@@ -212,7 +212,8 @@ absl::StatusOr<model::ContainerModel> SoilVolumeHandlers::BuildModel(
     absl::StatusOr<pipeline::Registration> registered =
         pipeline::RegisterContainer(std::get<Corners>(marks), scans, registration, record.stop);
     if (!registered.ok()) return registered.status();
-    response->set_registered_from(v1::SCAN_KIND_CLOUD);
+    response->set_registered_from(request.scan().has_depth() ? v1::SCAN_KIND_DEPTH
+                                                             : v1::SCAN_KIND_CLOUD);
     return std::move(registered->model);
 }
 

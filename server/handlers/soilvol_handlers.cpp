@@ -240,6 +240,20 @@ absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(
             out.dropped_nonfinite = cloud->dropped_nonfinite;
             return out;
         }
+        case v1::Scan::kDepth: {
+            Timer timer;
+            SOILVOL_ASSIGN_OR_RETURN(const DepthScanOptions options,
+                                     ToDepthScanOptions(scan.depth(), "scan.depth"));
+            absl::StatusOr<depth::DepthCloud> cloud =
+                depth::DecodeDepthScan(scan.depth().depth(), scan.depth().confidence(),
+                                       options.camera, options.config, "scan.depth");
+            if (!cloud.ok()) return cloud.status();
+            out.decode_ms = timer.Lap();
+            out.cloud = std::move(cloud->points);
+            out.depth_counts = cloud->counts;
+            out.depth_points = out.cloud.size();
+            return out;
+        }
         case v1::Scan::kStereo: {
             const v1::StereoScan& stereo = scan.stereo();
             if (stereo.left().empty())
@@ -258,7 +272,8 @@ absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(
         }
         default:
             return absl::InvalidArgumentError(
-                "scan: is required: give cloud {data} or stereo {left, right, calibration_id}");
+                "scan: is required: give cloud {data}, stereo {left, right, calibration_id} or "
+                "depth {depth, camera}");
     }
 }
 

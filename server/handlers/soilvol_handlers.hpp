@@ -8,6 +8,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/common/types.hpp"
+#include "core/depth/depth_scan.hpp"
 #include "core/io/mesh_codec.hpp"
 #include "core/model/container_model.hpp"
 #include "core/pipeline/estimator.hpp"
@@ -106,6 +107,8 @@ class SoilVolumeHandlers {
         std::size_t dropped_nonfinite = 0;
         double decode_ms = 0.0;                               ///< cloud scans: parsing the file
         std::shared_ptr<const CalibrationEntry> calibration;  ///< set for stereo scans
+        std::optional<depth::DepthScanCounts> depth_counts;   ///< set for depth scans
+        std::size_t depth_points = 0;
         std::string_view left, right;
     };
 

@@ -28,10 +28,19 @@ struct FileField {
     const char* path;  ///< singular message fields down to a bytes field
 };
 
-constexpr std::array<FileField, 4> kFiles = {{{"cloud", "scan.cloud.data"},
+constexpr std::array<FileField, 6> kFiles = {{{"cloud", "scan.cloud.data"},
                                               {"left", "scan.stereo.left"},
                                               {"right", "scan.stereo.right"},
+                                              {"depth", "scan.depth.depth"},
+                                              {"confidence", "scan.depth.confidence"},
                                               {"mesh", "mesh.data"}}};
+
+/// Files that only come with another one (a stereo pair's sides, a depth image's confidence):
+/// not a binary body alone.
+bool IsCompanionFile(const FileField* file) {
+    const std::string_view name = file->name;
+    return name == "left" || name == "right" || name == "confidence";
+}
 
 const FileField* FindFile(std::string_view name) {
     for (const FileField& file : kFiles) {
@@ -72,8 +81,9 @@ absl::Status SetFileBytes(google::protobuf::Message* message, const FileField& f
     return absl::OkStatus();
 }
 
-/// multipart/form-data: a `request` part (the request as JSON), files `cloud`, `left`, `right`
-/// and `mesh` (into `files`), any other part naming a field as a query parameter would.
+/// multipart/form-data: a `request` part (the request as JSON), files `cloud`, `left`, `right`,
+/// `depth`, `confidence` and `mesh` (into `files`), any other part naming a field as a query
+/// parameter would.
 absl::Status BindMultipart(std::string_view content_type, const std::string& body,
                            google::protobuf::Message* message, std::vector<PendingFile>* files) {
     absl::StatusOr<std::string> boundary = MultipartBoundary(content_type);
@@ -125,10 +135,11 @@ absl::StatusOr<const FileField*> BinaryBodyFile(
         }
         if (named) return absl::InvalidArgumentError("file: is given twice");
         file = FindFile(it->second);
-        if (file == nullptr || file == &kFiles[1] || file == &kFiles[2]) {
-            return absl::InvalidArgumentError(absl::StrCat(
-                "file: '", it->second,
-                "' is not cloud or mesh (a stereo pair is two files: send multipart/form-data)"));
+        if (file == nullptr || IsCompanionFile(file)) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("file: '", it->second,
+                             "' is not cloud, depth or mesh (a stereo pair, or a depth image "
+                             "with its confidence, is two files: send multipart/form-data)"));
         }
         named = true;
         it = parameters.erase(it);

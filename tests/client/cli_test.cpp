@@ -38,6 +38,13 @@ TEST(Cli, UsageErrorsExitTwo) {
         {"demo", "--fills", "0,3"},
         {"demo", "--container", "barrel"},
         {"health", "--timeout-s", "-1"},
+        {"estimate", "--id", "x", "--depth", "d.png"},
+        {"estimate", "--id", "x", "--depth", "d.png", "--intrinsics", "1,2,3"},
+        {"estimate", "--id", "x", "--depth", "d.png", "--intrinsics", "1,2,3,4", "--cloud",
+         "a.ply"},
+        {"estimate", "--id", "x", "--depth", "d.png", "--intrinsics", "1,2,3,4", "--lens", "fish"},
+        {"estimate", "--id", "x", "--cloud", "a.ply", "--confidence", "c.png"},
+        {"register", "--id", "x", "--intrinsics", "1,2,3,4", "--cloud", "a.ply"},
     };
     for (const auto& args : cases) {
         testing::internal::CaptureStderr();

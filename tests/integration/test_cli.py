@@ -8,6 +8,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
+import depth_scene  # noqa: E402
 import mesh_scene  # noqa: E402
 from harness import CLI_BIN, shared_server  # noqa: E402
 
@@ -48,6 +49,35 @@ class Cli(unittest.TestCase):
         left = [c["containerId"] for c in listed.get("containers", [])
                 if c["containerId"].startswith("demo-")]
         self.assertEqual(left, [], "the demo deletes what it made")
+
+    def test_register_and_estimate_from_depth_images(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            paths = {}
+            for name, fill, seed in (("empty", 0.0, 11), ("full", 0.25, 12)):
+                z = depth_scene.millimetres(depth_scene.render(fill, 0.002, seed=seed))
+                paths[name] = os.path.join(tmp, f"{name}.png")
+                with open(paths[name], "wb") as f:
+                    f.write(depth_scene.encode_png(z))
+            k = depth_scene.intrinsics()
+            camera = ["--intrinsics", f"{k['fx']},{k['fy']},{k['cx']},{k['cy']}"]
+            corners = ";".join(f"{x},{y},{z}" for x, y, z in depth_scene.opening_corners())
+            out = json.loads(self.run_cli("--json", "register", "--id", "cli-depth", "--depth",
+                                          paths["empty"], *camera, "--corners", corners).stdout)
+            self.assertEqual(out["registeredFrom"], "SCAN_KIND_DEPTH")
+            est = json.loads(self.run_cli("--json", "estimate", "--id", "cli-depth", "--depth",
+                                          paths["full"], *camera, "--depth-noise", "0.004").stdout)
+            truth = box_scene.INNER_L * box_scene.INNER_W * 0.25
+            self.assertLess(abs(est["volumeM3"] - truth), 0.04 * box_scene.STRUCK_M3)
+            self.assertEqual(int(est["depthPixels"]["pixels"]),
+                             depth_scene.WIDTH * depth_scene.HEIGHT)
+            shown = self.run_cli("estimate", "--id", "cli-depth", "--depth", paths["full"],
+                                 *camera).stdout
+            self.assertIn("back-projected", shown)
+            bad = self.run_cli("estimate", "--id", "cli-depth", "--depth", paths["full"],
+                               "--intrinsics", "0,250,160,120", check=False)
+            self.assertEqual(bad.returncode, 1, bad.stderr)
+            self.assertIn("scan.depth.camera.fx/fy", bad.stderr)
+            self.run_cli("containers", "delete", "cli-depth")
 
     def test_register_get_estimate_delete_from_files(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -276,8 +276,8 @@ TEST_F(BindRequestTest, BinaryBodyIsTheMeshWhenTheQuerySaysSo) {
 
 TEST_F(BindRequestTest, BinaryBodyFilesOutsideTheRouteNameTheParameter) {
     const std::pair<std::string, std::string> cases[] = {
-        {"file=left", "file: 'left' is not cloud or mesh"},
-        {"file=nope", "file: 'nope' is not cloud or mesh"},
+        {"file=left", "file: 'left' is not cloud, depth or mesh"},
+        {"file=nope", "file: 'nope' is not cloud, depth or mesh"},
         {"file=mesh&file=mesh", "file: is given twice"},
         {"file=mesh&mesh.data=abc", "mesh.data: bytes cannot be set"},
         {"file=mesh&mesh=%7B%22data%22%3A%22c3Rs%22%7D", "mesh.data: given twice"},

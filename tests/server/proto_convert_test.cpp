@@ -85,6 +85,52 @@ TEST(ProtoConvert, StereoParameterCountsNameTheField) {
     ExpectInvalid(ToStereoParameters(p, "parameters").status(), "parameters.left");
 }
 
+TEST(ProtoConvert, DepthScanOptionsMapEveryEnumAndNameBadFields) {
+    v1::DepthScan scan;
+    v1::DepthCamera* camera = scan.mutable_camera();
+    camera->set_fx(250);
+    camera->set_fy(251);
+    camera->set_cx(160);
+    camera->set_cy(120);
+    camera->set_lens(v1::LENS_MODEL_KANNALA_BRANDT);
+    for (double k : {0.1, 0.01, 0.001, 0.0001}) camera->add_distortion(k);
+    camera->set_meaning(v1::DEPTH_MEANING_RANGE);
+    camera->set_depth_unit_m(0.0001);
+    scan.set_min_confidence(30);
+    scan.set_depth_noise_m(0.01);
+    scan.set_keep_flying_pixels(true);
+    auto options = ToDepthScanOptions(scan, "scan.depth");
+    ASSERT_TRUE(options.ok()) << options.status();
+    EXPECT_EQ(options->camera.lens, depth::LensModel::kKannalaBrandt);
+    EXPECT_EQ(options->camera.meaning, depth::DepthMeaning::kRange);
+    EXPECT_EQ(options->camera.intrinsics.distortion.size(), 4u);
+    EXPECT_EQ(options->camera.intrinsics.fy, 251.0);
+    EXPECT_EQ(options->camera.depth_unit_m, 0.0001);
+    EXPECT_EQ(options->config.min_confidence, 30.0);
+    EXPECT_EQ(options->config.flying.noise_m, 0.01);
+    EXPECT_FALSE(options->config.flying.enabled);
+    // Unset: a pinhole z-depth camera, the filter on at its default noise.
+    options = ToDepthScanOptions(v1::DepthScan(), "scan.depth");
+    ASSERT_TRUE(options.ok());
+    EXPECT_EQ(options->camera.lens, depth::LensModel::kPinhole);
+    EXPECT_EQ(options->camera.meaning, depth::DepthMeaning::kZ);
+    EXPECT_TRUE(options->config.flying.enabled);
+    EXPECT_EQ(options->config.flying.noise_m, depth::FlyingPixelConfig{}.noise_m);
+
+    v1::DepthScan bad = scan;
+    bad.mutable_camera()->set_lens(static_cast<v1::LensModel>(9));
+    ExpectInvalid(ToDepthScanOptions(bad, "scan.depth").status(), "scan.depth.camera.lens");
+    bad = scan;
+    bad.mutable_camera()->set_meaning(static_cast<v1::DepthMeaning>(-1));
+    ExpectInvalid(ToDepthScanOptions(bad, "scan.depth").status(), "scan.depth.camera.meaning");
+    bad = scan;
+    bad.set_depth_noise_m(std::numeric_limits<double>::quiet_NaN());
+    ExpectInvalid(ToDepthScanOptions(bad, "scan.depth").status(), "scan.depth.depth_noise_m");
+    bad = scan;
+    bad.set_min_confidence(std::numeric_limits<double>::infinity());
+    ExpectInvalid(ToDepthScanOptions(bad, "scan.depth").status(), "scan.depth.min_confidence");
+}
+
 TEST(ProtoConvert, OpeningNeedsExactlyOneKindOfFourCorners) {
     v1::Opening opening;
     ExpectInvalid(ToOpeningMarks(opening, false).status(), "opening");

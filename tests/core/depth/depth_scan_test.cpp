@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/stereo/image_codec.hpp"
@@ -100,6 +101,24 @@ TEST(DepthScanTest, SixteenBitMillimetresAndFloatMetresDecodeAlike) {
     const auto scaled = BackProject(mm, nullptr, tenth, {}, "scan.depth");
     ASSERT_TRUE(scaled.ok());
     EXPECT_NEAR(scaled->points[0].z() * 10.0f, from_png->points[0].z(), 1e-4);
+}
+
+TEST(DepthScanTest, EncodedScalarImagesDecodeToTheirValues) {
+    const DepthCamera camera = Pinhole();
+    for (const auto& [bits, unit] : {std::pair{16, 0.001}, std::pair{32, 1.0}}) {
+        const ScalarImage image = PlaneImage(camera, DepthMeaning::kZ, bits, unit);
+        const auto bytes = stereo::EncodeScalar(image);
+        ASSERT_TRUE(bytes.ok()) << bytes.status();
+        const auto decoded = stereo::DecodeScalar(*bytes, "depth");
+        ASSERT_TRUE(decoded.ok()) << decoded.status();
+        EXPECT_EQ(decoded->bits, bits);
+        EXPECT_EQ(decoded->values, image.values) << bits;
+    }
+    ScalarImage odd{2, 2, 7, {1, 2, 3, 4}};
+    EXPECT_TRUE(IsInvalidWith(stereo::EncodeScalar(odd), "7 bits"));
+    odd.bits = 16;
+    odd.values.pop_back();
+    EXPECT_TRUE(IsInvalidWith(stereo::EncodeScalar(odd), "3 values for 2x2"));
 }
 
 TEST(DepthScanTest, DroppedPixelsAreCountedByReason) {
