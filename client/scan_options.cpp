@@ -33,7 +33,7 @@ CLI::Option* AddDepthOptions(CLI::App* command, DepthOptions* options, const std
             "--depth-unit", options->unit_m,
             "metres per stored depth unit (default: 0.001 for 16-bit, 1 for float)"),
         command->add_option("--depth-noise", options->noise_m,
-                            "depth noise, 1 sigma [m], for the flying-pixel filter (0.005)"),
+                            "depth noise at 1 m, 1 sigma [m], for the flying-pixel filter (0.002)"),
         command->add_flag("--range-image", options->range,
                           "the depth image holds range along each ray, not z-depth"),
         command->add_flag("--keep-flying-pixels", options->keep_flying,

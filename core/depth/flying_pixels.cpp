@@ -8,18 +8,105 @@
 namespace soilvol::depth {
 namespace {
 
-// Inverse depths along one direction: w[0] the pixel, w[1..3] one side, w[4..6] the other.
-struct Line {
-    std::array<double, 7> w;
+constexpr std::array<std::array<int, 2>, 4> kDirections{{{1, 0}, {0, 1}, {1, 1}, {1, -1}}};
+
+// Tolerances, in noise sigmas of the residual they bound (independent pixels of sigma s):
+//   - the pixel against the least-squares line through the side's three pixels, extrapolated
+//     one step: (4 w1 + w2 - 2 w3) / 3 has sqrt(7/3) s, the residual sqrt(10/3) s;
+//   - the side's own straightness w1 - 2 w2 + w3: sqrt(6) s.
+constexpr double kContinueSigmas = 1.3;
+constexpr double kStraightSigmas = 3.0;
+constexpr double kEdgeSigmas = 6.0;
+constexpr double kAbruptPerPixel = 4.0;
+
+// The depth image with 0 wherever there is no return (NaN, 0, negative).
+class Image {
+  public:
+    Image(const std::vector<float>& z, int width, int height)
+        : z_(z.size()), width_(width), height_(height) {
+        for (std::size_t i = 0; i < z.size(); ++i) z_[i] = z[i] > 0.0f ? z[i] : 0.0f;
+        offsets_ = {1, static_cast<std::ptrdiff_t>(width), static_cast<std::ptrdiff_t>(width) + 1,
+                    1 - static_cast<std::ptrdiff_t>(width)};
+    }
+
+    // The depth at (u, v); 0 outside the image or without a return.
+    float At(int u, int v) const {
+        if (u < 0 || v < 0 || u >= width_ || v >= height_) return 0.0f;
+        return z_[static_cast<std::size_t>(v) * width_ + u];
+    }
+
+    double Depth(int u, int v) const { return static_cast<double>(At(u, v)); }
+
+    // Whether some direction's two neighbours of interior pixel i (depth z) lie apart by more
+    // than `jump` with z between them: the cheap half of IsFlying's test, for every pixel.
+    bool MayBeOnEdge(std::size_t i, float z, float jump) const {
+        const float* p = z_.data() + i;
+        for (const std::ptrdiff_t o : offsets_) {
+            const float a = p[-o];
+            const float b = p[o];
+            if (a > 0.0f && b > 0.0f && std::abs(a - b) > jump && z >= std::min(a, b) &&
+                z <= std::max(a, b)) {
+                return true;
+            }
+        }
+        return false;
+    }
+
+  private:
+    std::vector<float> z_;
+    int width_;
+    int height_;
+    std::array<std::ptrdiff_t, 4> offsets_{};  ///< kDirections as index steps
 };
 
-// Whether the side w[first], w[first+1], w[first+2] is a surface the pixel continues.
-bool Continues(const Line& line, int first, double tolerance) {
-    const double s1 = line.w[first];
-    const double s2 = line.w[first + 1];
-    const double s3 = line.w[first + 2];
-    const bool side_is_surface = std::abs(s1 - (2.0 * s2 - s3)) <= tolerance;
-    return side_is_surface && std::abs(line.w[0] - (2.0 * s1 - s2)) <= tolerance;
+// What one side of (u, v) along a direction holds: its three depths, 0 where missing.
+struct Side {
+    double z1, z2, z3;
+    bool complete() const { return z1 > 0.0 && z2 > 0.0 && z3 > 0.0; }
+};
+
+Side SideOf(const Image& image, int u, int v, int du, int dv) {
+    return {image.Depth(u + du, v + dv), image.Depth(u + 2 * du, v + 2 * dv),
+            image.Depth(u + 3 * du, v + 3 * dv)};
+}
+
+// Whether the pixel, of depth z, continues the side's surface, in inverse depth.
+bool Continues(const Side& side, double z, const FlyingPixelConfig& config) {
+    if (!side.complete()) return false;
+    const double sigma_w = config.noise_at_1m_m / z;  // noise_at_1m_m * z / z^2, as dw = dz / z^2
+    const double w1 = 1.0 / side.z1;
+    const double w2 = 1.0 / side.z2;
+    const double w3 = 1.0 / side.z3;
+    if (std::abs(w1 - 2.0 * w2 + w3) > kStraightSigmas * std::sqrt(6.0) * sigma_w) return false;
+    const double predicted = (4.0 * w1 + w2 - 2.0 * w3) / 3.0;
+    return std::abs(1.0 / z - predicted) <= kContinueSigmas * std::sqrt(10.0 / 3.0) * sigma_w;
+}
+
+// Whether (u, v), of depth z, is a mixed return: some direction crosses a depth edge there and
+// along no such direction does the pixel continue the surface of either side.
+bool IsFlying(const Image& image, int u, int v, double z, const FlyingPixelConfig& config) {
+    const double jump = std::max(config.jump_ratio, kEdgeSigmas * config.noise_at_1m_m) * z;
+    bool crossed = false;
+    for (const auto& d : kDirections) {
+        const double a = image.Depth(u - d[0], v - d[1]);
+        const double b = image.Depth(u + d[0], v + d[1]);
+        if (a <= 0.0 || b <= 0.0 || std::abs(a - b) <= jump) continue;
+        if (z < std::min(a, b) || z > std::max(a, b)) continue;
+        const Side before = SideOf(image, u, v, -d[0], -d[1]);
+        const Side after = SideOf(image, u, v, d[0], d[1]);
+        if (!before.complete() && !after.complete()) continue;
+        // An edge, not a steep surface: per pixel, the step across the pixel exceeds
+        // kAbruptPerPixel times what the surfaces beyond step (a surface at a grazing angle
+        // steps about as much everywhere, and its weak return is noisier than the model).
+        double slope = 0.0;
+        for (const Side* side : {&before, &after}) {
+            if (side->complete()) slope = std::max(slope, std::abs(side->z2 - side->z3));
+        }
+        if (0.5 * std::abs(a - b) <= kAbruptPerPixel * slope) continue;
+        if (Continues(before, z, config) || Continues(after, z, config)) return false;
+        crossed = true;
+    }
+    return crossed;
 }
 
 }  // namespace
@@ -28,46 +115,18 @@ std::vector<std::uint8_t> FindFlyingPixels(const std::vector<float>& z_m, int wi
                                            const FlyingPixelConfig& config) {
     std::vector<std::uint8_t> flying(z_m.size(), 0);
     if (!config.enabled || width < 7 || height < 7) return flying;
-    constexpr std::array<std::array<int, 2>, 4> kDirections{{{1, 0}, {0, 1}, {1, 1}, {1, -1}}};
-    const auto depth = [&](int u, int v) {
-        return static_cast<double>(z_m[static_cast<std::size_t>(v) * width + u]);
-    };
+    const Image image(z_m, width, height);
+    const float jump_ratio =
+        static_cast<float>(std::max(config.jump_ratio, kEdgeSigmas * config.noise_at_1m_m));
     for (int v = 0; v < height; ++v) {
+        const bool border_row = v == 0 || v == height - 1;
         for (int u = 0; u < width; ++u) {
-            const double z = depth(u, v);
-            if (!(z > 0.0)) continue;
-            // A difference of two noisy depths has sqrt(2) sigmas; a continuation's residual
-            // (w - 2 w1 + w2, and the side's own) sqrt(6) sigmas in inverse depth, dw = dz / z^2.
-            const double jump =
-                std::max(config.jump_ratio * z, 4.0 * std::sqrt(2.0) * config.noise_m);
-            const double tolerance = 4.0 * std::sqrt(6.0) * config.noise_m / (z * z);
-            for (const auto& d : kDirections) {
-                if (u - 3 * d[0] < 0 || u + 3 * d[0] >= width || v - 3 * d[1] < 0 ||
-                    v + 3 * d[1] >= height || v + 3 * d[1] < 0 || v - 3 * d[1] >= height) {
-                    continue;
-                }
-                const double a = depth(u - d[0], v - d[1]);
-                const double b = depth(u + d[0], v + d[1]);
-                if (!(a > 0.0) || !(b > 0.0)) continue;
-                if (std::abs(z - a) <= jump || std::abs(z - b) <= jump || (z - a) * (z - b) > 0.0) {
-                    continue;
-                }
-                Line line{};
-                line.w[0] = 1.0 / z;
-                bool complete = true;
-                for (int i = 1; i <= 3; ++i) {
-                    const double za = depth(u - i * d[0], v - i * d[1]);
-                    const double zb = depth(u + i * d[0], v + i * d[1]);
-                    complete = complete && za > 0.0 && zb > 0.0;
-                    line.w[static_cast<std::size_t>(i)] = 1.0 / za;
-                    line.w[static_cast<std::size_t>(3 + i)] = 1.0 / zb;
-                }
-                if (!complete) continue;
-                if (!Continues(line, 1, tolerance) && !Continues(line, 4, tolerance)) {
-                    flying[static_cast<std::size_t>(v) * width + u] = 1;
-                    break;
-                }
-            }
+            const std::size_t i = static_cast<std::size_t>(v) * width + u;
+            const float z = image.At(u, v);
+            if (z <= 0.0f) continue;
+            const bool interior = !border_row && u > 0 && u < width - 1;
+            if (interior && !image.MayBeOnEdge(i, z, jump_ratio * z)) continue;
+            flying[i] = IsFlying(image, u, v, static_cast<double>(z), config);
         }
     }
     return flying;

@@ -12,34 +12,91 @@ constexpr double kEdgeRatio = 0.03;
 constexpr int kMultipathWindowPx = 6;
 constexpr double kConcaveCos = 0.87;  // normals more than 30 deg apart
 
-// The first hits of every pixel's centre ray (container frame), with the rays (camera frame).
+// The first hits of every pixel's centre ray (container frame), with the rays (camera frame),
+// and what the pixel's whole footprint returns.
 struct Hits {
     std::vector<Eigen::Vector3d> ray;     ///< unit, camera frame
     std::vector<double> range;            ///< 0: miss
     std::vector<Eigen::Vector3d> point;   ///< container frame
     std::vector<Eigen::Vector3d> normal;  ///< container frame, facing the camera
+    std::vector<double> mixed_range;      ///< the footprint's amplitude-weighted range
+    std::vector<double> other_share;      ///< amplitude share of other surfaces in it
+    std::vector<double> other_range;      ///< their amplitude-weighted range
 };
 
+struct Return {
+    double range = 0.0;
+    double amplitude = 0.0;
+};
+
+Return CastRay(const SceneRaycaster& scene, const Pose& T_container_scan,
+               const Eigen::Vector3d& ray, RayHit* hit_out = nullptr) {
+    constexpr double kMaxRange = 50.0;
+    const Eigen::Vector3d direction = T_container_scan.linear() * ray;
+    const auto hit = scene.CastHit(T_container_scan.translation(), direction, kMaxRange);
+    if (!hit) return {};
+    if (hit_out != nullptr) *hit_out = *hit;
+    const double incidence_cos = std::max(0.0, -direction.dot(hit->normal));
+    return {hit->distance, incidence_cos / (hit->distance * hit->distance)};
+}
+
+// A pixel's footprint, sampled on a footprint_samples^2 grid of sub-rays: the light of all of
+// them, amplitude-weighted (the phases of nearby depths add as their mean); sub-rays whose
+// range differs from the centre ray's by more than kEdgeRatio saw another surface.
+void IntegrateFootprint(const SceneRaycaster& scene, const Pose& T_container_scan,
+                        const CameraIntrinsics& k, int u, int v, int samples, double centre,
+                        Hits& hits, std::size_t i) {
+    double weight = 0.0, weighted = 0.0, other_weight = 0.0, other_weighted = 0.0;
+    for (int sv = 0; sv < samples; ++sv) {
+        for (int su = 0; su < samples; ++su) {
+            const double x = u - 0.5 + (su + 0.5) / samples;
+            const double y = v - 0.5 + (sv + 0.5) / samples;
+            const Eigen::Vector3d ray = Eigen::Vector3d((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0);
+            const Return r = CastRay(scene, T_container_scan, ray.normalized());
+            if (r.amplitude <= 0.0) continue;
+            weight += r.amplitude;
+            weighted += r.amplitude * r.range;
+            if (centre <= 0.0 || std::abs(r.range - centre) > kEdgeRatio * centre) {
+                other_weight += r.amplitude;
+                other_weighted += r.amplitude * r.range;
+            }
+        }
+    }
+    if (weight <= 0.0 || centre <= 0.0) return;
+    hits.mixed_range[i] = weighted / weight;
+    hits.other_share[i] = other_weight / weight;
+    hits.other_range[i] = other_weight > 0.0 ? other_weighted / other_weight : 0.0;
+}
+
 Hits CastAll(const SceneRaycaster& scene, const Pose& T_scan_container, const CameraIntrinsics& k,
-             int width, int height) {
+             int width, int height, int footprint_samples) {
     const Pose T_container_scan = T_scan_container.inverse();
-    const Eigen::Vector3d origin = T_container_scan.translation();
     const std::size_t n = static_cast<std::size_t>(width) * height;
-    Hits hits{std::vector<Eigen::Vector3d>(n), std::vector<double>(n, 0.0),
+    Hits hits{std::vector<Eigen::Vector3d>(n),
+              std::vector<double>(n, 0.0),
               std::vector<Eigen::Vector3d>(n, Eigen::Vector3d::Zero()),
-              std::vector<Eigen::Vector3d>(n, Eigen::Vector3d::UnitZ())};
-    const double max_range = 50.0;
+              std::vector<Eigen::Vector3d>(n, Eigen::Vector3d::UnitZ()),
+              std::vector<double>(n, 0.0),
+              std::vector<double>(n, 0.0),
+              std::vector<double>(n, 0.0)};
 #pragma omp parallel for schedule(dynamic, 4)
     for (int v = 0; v < height; ++v) {
         for (int u = 0; u < width; ++u) {
             const std::size_t i = static_cast<std::size_t>(v) * width + u;
             hits.ray[i] = Eigen::Vector3d((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0).normalized();
-            const Eigen::Vector3d direction = T_container_scan.linear() * hits.ray[i];
-            const auto hit = scene.CastHit(origin, direction, max_range);
-            if (!hit) continue;
-            hits.range[i] = hit->distance;
-            hits.point[i] = origin + hit->distance * direction;
-            hits.normal[i] = hit->normal;
+            RayHit hit{};
+            const Return centre = CastRay(scene, T_container_scan, hits.ray[i], &hit);
+            if (centre.range > 0.0) {
+                hits.range[i] = hit.distance;
+                hits.point[i] = T_container_scan.translation() +
+                                hit.distance * (T_container_scan.linear() * hits.ray[i]);
+                hits.normal[i] = hit.normal;
+            }
+            hits.mixed_range[i] = hits.range[i];
+            if (footprint_samples > 1) {
+                IntegrateFootprint(scene, T_container_scan, k, u, v, footprint_samples,
+                                   hits.range[i], hits, i);
+            }
         }
     }
     return hits;
@@ -50,38 +107,6 @@ double Amplitude(const Hits& hits, const Pose& T_scan_container, std::size_t i) 
     const Eigen::Vector3d ray = T_scan_container.linear().transpose() * hits.ray[i];
     const double incidence_cos = std::max(0.0, -ray.dot(hits.normal[i]));
     return incidence_cos / (hits.range[i] * hits.range[i]);
-}
-
-// Mixes the returns across depth edges: for each pair of 4-neighbours whose ranges differ by
-// more than kEdgeRatio, the edge lies in one of the two (chosen at random), covering a uniform
-// share of it with the other surface; the range is the amplitude-weighted mean (phase mixing).
-void MixAcrossEdges(const std::vector<double>& amplitude, int width, int height,
-                    std::vector<double>& range, TofFrame& frame, std::mt19937_64* rng) {
-    std::vector<float>& share = frame.mix_share;
-    const std::vector<double> pure = range;
-    std::uniform_real_distribution<double> uniform(0.0, 1.0);
-    const auto mix = [&](std::size_t a, std::size_t b) {
-        if (pure[a] <= 0.0 || pure[b] <= 0.0) return;
-        if (std::abs(pure[a] - pure[b]) <= kEdgeRatio * std::min(pure[a], pure[b])) return;
-        const bool in_a = uniform(*rng) < 0.5;
-        const std::size_t m = in_a ? a : b;
-        const std::size_t o = in_a ? b : a;
-        if (share[m] > 0.0f) return;  // already mixed across another edge
-        const double s = uniform(*rng);
-        const double w_other = s * amplitude[o];
-        const double w_self = (1.0 - s) * amplitude[m];
-        if (w_other + w_self <= 0.0) return;
-        range[m] = (w_self * pure[m] + w_other * pure[o]) / (w_self + w_other);
-        share[m] = static_cast<float>(s);
-        frame.other_range_m[m] = static_cast<float>(pure[o]);
-    };
-    for (int v = 0; v < height; ++v) {
-        for (int u = 0; u < width; ++u) {
-            const std::size_t i = static_cast<std::size_t>(v) * width + u;
-            if (u + 1 < width) mix(i, i + 1);
-            if (v + 1 < height) mix(i, i + static_cast<std::size_t>(width));
-        }
-    }
 }
 
 // The multipath bias per pixel: light from facing surfaces nearby (a concave corner), summed
@@ -130,13 +155,17 @@ TofFrame RenderTof(const SceneRaycaster& scene, const Pose& T_scan_container,
     TofFrame frame;
     frame.intrinsics = {f, f, (w - 1) / 2.0, (h - 1) / 2.0, {}};
     const std::size_t n = static_cast<std::size_t>(w) * h;
-    const Hits hits = CastAll(scene, T_scan_container, frame.intrinsics, w, h);
+    const Hits hits = CastAll(scene, T_scan_container, frame.intrinsics, w, h,
+                              spec.flying_pixels ? spec.footprint_samples : 1);
     std::vector<double> amplitude(n);
     for (std::size_t i = 0; i < n; ++i) amplitude[i] = Amplitude(hits, T_scan_container, i);
-    std::vector<double> range = hits.range;
+    const std::vector<double>& range = hits.mixed_range;
     frame.mix_share.assign(n, 0.0f);
     frame.other_range_m.assign(n, 0.0f);
-    if (spec.flying_pixels) MixAcrossEdges(amplitude, w, h, range, frame, rng);
+    for (std::size_t i = 0; i < n; ++i) {
+        frame.mix_share[i] = static_cast<float>(hits.other_share[i]);
+        frame.other_range_m[i] = static_cast<float>(hits.other_range[i]);
+    }
     const std::vector<double> bias = MultipathBias(hits, w, h, spec);
     frame.depth = {w, h, 32, std::vector<float>(n, 0.0f)};
     frame.amplitude = {w, h, 32, std::vector<float>(n, 0.0f)};

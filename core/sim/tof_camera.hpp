@@ -24,10 +24,11 @@ struct TofCameraSpec {
     /// Pixels whose relative amplitude (cos(incidence) / r^2, 1 head-on at 1 m) is below this
     /// return nothing.
     double min_amplitude = 0.002;
-    /// A pixel whose footprint straddles a depth edge (neighbours' ranges apart by more than
-    /// 3% of the range) returns the amplitude-weighted mix of both surfaces, the edge lying
-    /// uniformly across one of the two pixels.
+    /// A pixel returns the light of its whole footprint (footprint_samples^2 sub-rays), the
+    /// amplitude-weighted mean of their ranges: where the footprint straddles a depth edge, a
+    /// mix of both surfaces ("flying pixel"). Off: each pixel returns its centre ray's hit.
     bool flying_pixels = true;
+    int footprint_samples = 4;
     /// Light bounced off a facing surface pushes returns long near concave corners: up to
     /// multipath_m in the corner, falling off as exp(-distance / multipath_reach_m) from it.
     double multipath_m = 0.0;
@@ -40,9 +41,11 @@ struct TofFrame {
     ScalarImage depth;
     ScalarImage amplitude;
     CameraIntrinsics intrinsics;
-    std::vector<float> true_range_m;   ///< the centre ray's range before any artefact; 0: miss
-    std::vector<float> mix_share;      ///< share of the other surface in a mixed return; 0: pure
-    std::vector<float> other_range_m;  ///< a mixed return's other surface, along its ray
+    std::vector<float> true_range_m;  ///< the centre ray's range before any artefact; 0: miss
+    /// Amplitude share of the footprint's light from other surfaces than the centre ray's
+    /// (ranges more than 3% apart); 0: pure.
+    std::vector<float> mix_share;
+    std::vector<float> other_range_m;  ///< their amplitude-weighted range; 0: pure
     std::vector<float> multipath_m;    ///< the bias added
 };
 

@@ -99,9 +99,9 @@ absl::StatusOr<DepthScanOptions> ToDepthScanOptions(const v1::DepthScan& proto,
     const double noise = proto.depth_noise_m();
     if (!std::isfinite(noise) || noise < 0.0 || noise > 1.0) {
         return absl::InvalidArgumentError(
-            absl::StrCat(field, ".depth_noise_m: must be in [0, 1] m (0: 0.005), got ", noise));
+            absl::StrCat(field, ".depth_noise_m: must be in [0, 1] m (0: 0.002), got ", noise));
     }
-    if (noise > 0.0) out.config.flying.noise_m = noise;
+    if (noise > 0.0) out.config.flying.noise_at_1m_m = noise;
     out.config.flying.enabled = !proto.keep_flying_pixels();
     return out;
 }

@@ -107,7 +107,7 @@ TEST(ProtoConvert, DepthScanOptionsMapEveryEnumAndNameBadFields) {
     EXPECT_EQ(options->camera.intrinsics.fy, 251.0);
     EXPECT_EQ(options->camera.depth_unit_m, 0.0001);
     EXPECT_EQ(options->config.min_confidence, 30.0);
-    EXPECT_EQ(options->config.flying.noise_m, 0.01);
+    EXPECT_EQ(options->config.flying.noise_at_1m_m, 0.01);
     EXPECT_FALSE(options->config.flying.enabled);
     // Unset: a pinhole z-depth camera, the filter on at its default noise.
     options = ToDepthScanOptions(v1::DepthScan(), "scan.depth");
@@ -115,7 +115,7 @@ TEST(ProtoConvert, DepthScanOptionsMapEveryEnumAndNameBadFields) {
     EXPECT_EQ(options->camera.lens, depth::LensModel::kPinhole);
     EXPECT_EQ(options->camera.meaning, depth::DepthMeaning::kZ);
     EXPECT_TRUE(options->config.flying.enabled);
-    EXPECT_EQ(options->config.flying.noise_m, depth::FlyingPixelConfig{}.noise_m);
+    EXPECT_EQ(options->config.flying.noise_at_1m_m, depth::FlyingPixelConfig{}.noise_at_1m_m);
 
     v1::DepthScan bad = scan;
     bad.mutable_camera()->set_lens(static_cast<v1::LensModel>(9));

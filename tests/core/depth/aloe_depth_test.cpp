@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
@@ -108,8 +109,13 @@ TEST(AloeDepthTest, FlyingPixelFilterKeepsTheRealSurfaces) {
     const Aloe aloe = LoadAloe(gt);
     DepthScanConfig config;
     config.max_range_m = 1e6;
-    // The ground truth's own resolution: one disparity step at the far end.
-    config.flying.noise_m = 0.005;
+    // The ground truth's own resolution, one disparity step: z^2 / (f b) at depth z, so at the
+    // far end (the smallest disparity d) z / (f b) = 1 / d per metre of depth.
+    float min_disparity = std::numeric_limits<float>::max();
+    for (const float d : aloe.disparity.values) {
+        if (d > 0.0f) min_disparity = std::min(min_disparity, d);
+    }
+    config.flying.noise_at_1m_m = 1.0 / static_cast<double>(min_disparity);
     const auto cloud =
         DecodeDepthScan(DepthTiff(aloe), "", RectifiedLeft(aloe.calibration), config, "scan.depth");
     ASSERT_TRUE(cloud.ok()) << cloud.status();
