@@ -93,7 +93,33 @@ Hits CastAll(const SceneRaycaster& scene, const Pose& T_scan_container, const Ca
                 hits.normal[i] = hit.normal;
             }
             hits.mixed_range[i] = hits.range[i];
-            if (footprint_samples > 1) {
+        }
+    }
+    if (footprint_samples <= 1) return hits;
+    // A footprint on one smooth surface returns its centre's range (to second order, as the
+    // sub-rays lie symmetrically about it); only pixels whose 8-neighbours' centre ranges jump
+    // (or miss) can straddle an edge, and only they are integrated. An edge thinner than the
+    // pixel pitch between two centre rays is not seen.
+    const auto at_edge = [&](int u, int v) {
+        const double r = hits.range[static_cast<std::size_t>(v) * width + u];
+        for (int dv = -1; dv <= 1; ++dv) {
+            for (int du = -1; du <= 1; ++du) {
+                const int uu = u + du;
+                const int vv = v + dv;
+                if (uu < 0 || vv < 0 || uu >= width || vv >= height) continue;
+                const double near = hits.range[static_cast<std::size_t>(vv) * width + uu];
+                if ((near <= 0.0) != (r <= 0.0) || std::abs(near - r) > 0.5 * kEdgeRatio * r) {
+                    return true;
+                }
+            }
+        }
+        return false;
+    };
+#pragma omp parallel for schedule(dynamic, 4)
+    for (int v = 0; v < height; ++v) {
+        for (int u = 0; u < width; ++u) {
+            const std::size_t i = static_cast<std::size_t>(v) * width + u;
+            if (hits.range[i] > 0.0 && at_edge(u, v)) {
                 IntegrateFootprint(scene, T_container_scan, k, u, v, footprint_samples,
                                    hits.range[i], hits, i);
             }
