@@ -15,8 +15,6 @@
 namespace soilvol::client {
 namespace {
 
-constexpr double kLitre = 1000.0;
-
 struct DemoOptions {
     sim::ContainerKind kind = sim::ContainerKind::kPaperBucket;
     std::string container = "paper";

@@ -8,8 +8,6 @@
 namespace soilvol::client {
 namespace {
 
-constexpr double kLitre = 1000.0;
-
 std::string JsonString(const std::string& text) {
     std::string out = "\"";
     for (const char c : text) {

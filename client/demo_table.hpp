@@ -9,6 +9,9 @@
 
 namespace soilvol::client {
 
+/// The demo prints volumes in litres.
+inline constexpr double kLitre = 1000.0;  // litres per cubic metre
+
 /// One demo measurement: the estimate of a simulated fill against its exact truth.
 struct DemoRow {
     double fill_share = 0.0;  ///< of the container depth

@@ -9,7 +9,7 @@
 namespace soilvol::server {
 namespace {
 
-constexpr const char* kSchema = R"sql(
+constexpr const char* kPostgresSchema = R"sql(
 CREATE TABLE IF NOT EXISTS soilvol_estimates (
     id BIGSERIAL PRIMARY KEY,
     container_id TEXT NOT NULL,
@@ -51,7 +51,7 @@ class PostgresRecordStore final : public RecordStore {
     explicit PostgresRecordStore(std::string url) : url_(std::move(url)) {}
 
     absl::Status Init() {
-        return Run("create the schema", [](pqxx::work& work) { work.exec(kSchema); });
+        return Run("create the schema", [](pqxx::work& work) { work.exec(kPostgresSchema); });
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {

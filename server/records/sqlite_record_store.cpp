@@ -11,7 +11,7 @@ namespace {
 
 constexpr int kBusyTimeoutMs = 5000;
 
-constexpr const char* kSchema = R"sql(
+constexpr const char* kSqliteSchema = R"sql(
 CREATE TABLE IF NOT EXISTS estimates (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
     container_id TEXT NOT NULL,
@@ -109,7 +109,7 @@ class SqliteRecordStore final : public RecordStore {
         for (const char* pragma : {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=FULL"}) {
             SOILVOL_RETURN_IF_ERROR(Exec(pragma));
         }
-        return Exec(kSchema);
+        return Exec(kSqliteSchema);
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {

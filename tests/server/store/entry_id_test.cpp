@@ -4,16 +4,13 @@
 
 #include <string>
 
+#include "tests/server/store/has_substr.hpp"
+
 namespace soilvol::server {
 namespace {
 
 std::string Message(std::string_view id) {
     return std::string(ValidateId(id, "container id").message());
-}
-
-::testing::AssertionResult HasSubstr(absl::string_view text, absl::string_view part) {
-    if (text.find(part) != absl::string_view::npos) return ::testing::AssertionSuccess();
-    return ::testing::AssertionFailure() << "'" << text << "' lacks '" << part << "'";
 }
 
 TEST(EntryIdTest, PlainIdsAreAccepted) {

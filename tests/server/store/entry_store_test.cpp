@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/server/store/has_substr.hpp"
 #include "tests/server/store/scratch_dir.hpp"
 
 namespace soilvol::server {
@@ -29,11 +30,6 @@ namespace fs = std::filesystem;
 using Ids = std::vector<std::string>;
 constexpr EntryKind kContainer = EntryKind::kContainer;
 constexpr EntryKind kCalibration = EntryKind::kCalibration;
-
-::testing::AssertionResult HasSubstr(absl::string_view text, absl::string_view part) {
-    if (text.find(part) != absl::string_view::npos) return ::testing::AssertionSuccess();
-    return ::testing::AssertionFailure() << "'" << text << "' lacks '" << part << "'";
-}
 
 void WriteFile(const fs::path& path, const std::string& bytes) {
     std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
