@@ -94,6 +94,13 @@ void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& 
         command->add_option("--right", options->right, what + ": right image of the pair");
     auto* calibration = command->add_option("--calibration", options->calibration,
                                             "calibration id the pair was taken with");
+    command
+        ->add_option("--sensor-pose", options->sensor_pose,
+                     "the sensor's pose in the cloud's frame: x,y,z [m],qw,qx,qy,qz (default: "
+                     "a PCD's VIEWPOINT, else the cloud's origin)")
+        ->delimiter(',')
+        ->expected(7)
+        ->needs(cloud);
     for (auto* stereo : {left, right, calibration}) cloud->excludes(stereo);
     left->needs(right, calibration);
     right->needs(left, calibration);
@@ -108,6 +115,17 @@ absl::StatusOr<v1::Scan> BuildScan(const ScanOptions& options) {
         absl::StatusOr<std::string> data = ReadFile(options.cloud);
         if (!data.ok()) return data.status();
         scan.mutable_cloud()->set_data(*std::move(data));
+        if (options.sensor_pose.size() == 7) {
+            const std::vector<double>& p = options.sensor_pose;
+            v1::Pose* pose = scan.mutable_cloud()->mutable_sensor_pose();
+            pose->mutable_position_m()->set_x(p[0]);
+            pose->mutable_position_m()->set_y(p[1]);
+            pose->mutable_position_m()->set_z(p[2]);
+            pose->mutable_orientation()->set_w(p[3]);
+            pose->mutable_orientation()->set_x(p[4]);
+            pose->mutable_orientation()->set_y(p[5]);
+            pose->mutable_orientation()->set_z(p[6]);
+        }
         return scan;
     }
     if (!options.depth.depth.empty()) return BuildDepthScan(options.depth);

@@ -27,13 +27,15 @@ struct DepthOptions {
 /// depth image with its camera.
 struct ScanOptions {
     std::string cloud;
+    std::vector<double> sensor_pose;  ///< x, y, z [m], qw, qx, qy, qz: the sensor in the cloud
     std::string left;
     std::string right;
     std::string calibration;
     DepthOptions depth;
 };
 
-/// Adds --cloud | (--left --right --calibration) | (--depth --intrinsics ...) to `command`;
+/// Adds --cloud [--sensor-pose] | (--left --right --calibration) | (--depth --intrinsics ...)
+/// to `command`;
 /// `what` says which scan it is.
 void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& what);
 

@@ -16,6 +16,9 @@ struct DecodedCloud {
     Cloud points;                       ///< finite points only [m]
     std::size_t dropped_nonfinite = 0;  ///< points with a NaN/Inf coordinate, dropped
     CloudFormat format = CloudFormat::kPly;
+    /// The sensor's pose in the cloud's frame (x_cloud = sensor_pose * x_sensor): a PCD's
+    /// VIEWPOINT; the identity for PLY, raw xyz and PCDs without one.
+    Pose sensor_pose = Pose::Identity();
 };
 
 /// Decodes PLY (ascii, binary_little_endian, binary_big_endian; x/y/z float or double),
@@ -33,7 +36,9 @@ std::string EncodePly(const Cloud& points, PlyEncoding encoding = PlyEncoding::k
 
 /// Encodes `points` as a PCD v0.7 file with float x/y/z fields. binary_compressed stores 32-bit
 /// sizes, so a cloud of more than ~335 million points is written as binary instead.
-std::string EncodePcd(const Cloud& points, PcdEncoding encoding = PcdEncoding::kBinary);
+/// `sensor_pose` goes into VIEWPOINT (the sensor's pose in the cloud's frame).
+std::string EncodePcd(const Cloud& points, PcdEncoding encoding = PcdEncoding::kBinary,
+                      const Pose& sensor_pose = Pose::Identity());
 
 /// Encodes `points` as raw little-endian float32 xyz triplets.
 std::string EncodeRawXyzF32(const Cloud& points);

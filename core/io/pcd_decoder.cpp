@@ -77,15 +77,20 @@ absl::StatusOr<DecodedCloud> DecodeBinaryBody(const PcdHeader& header, std::stri
 absl::StatusOr<DecodedCloud> DecodePcd(std::string_view bytes) {
     SOILVOL_ASSIGN_OR_RETURN(const PcdHeader header, ParsePcdHeader(bytes));
     const std::string_view body = bytes.substr(header.body_offset);
+    absl::StatusOr<DecodedCloud> cloud = BodyError("unknown DATA kind");
     switch (header.data) {
         case PcdData::kAscii:
-            return DecodePcdAsciiBody(header, body);
+            cloud = DecodePcdAsciiBody(header, body);
+            break;
         case PcdData::kBinary:
-            return DecodeBinaryBody(header, body);
+            cloud = DecodeBinaryBody(header, body);
+            break;
         case PcdData::kBinaryCompressed:
-            return DecodePcdCompressedBody(header, body);
+            cloud = DecodePcdCompressedBody(header, body);
+            break;
     }
-    return BodyError("unknown DATA kind");
+    if (cloud.ok()) cloud->sensor_pose = header.viewpoint;
+    return cloud;
 }
 
 absl::StatusOr<DecodedCloud> DecodePcdCompressedBody(const PcdHeader& header,

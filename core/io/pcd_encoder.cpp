@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/io/cloud_codec.hpp"
 #include "core/io/scalar_type.hpp"
 #include "core/io/xyz_writer.hpp"
@@ -26,12 +27,20 @@ const char* DataName(PcdEncoding encoding) {
     return "binary";
 }
 
-std::string Header(std::size_t count, PcdEncoding encoding) {
+// VIEWPOINT tx ty tz qw qx qy qz, to 17 significant digits (a double's round trip).
+std::string Viewpoint(const Pose& sensor_pose) {
+    const Eigen::Vector3d t = sensor_pose.translation();
+    const Eigen::Quaterniond q(sensor_pose.linear());
+    return absl::StrFormat("VIEWPOINT %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", t.x(), t.y(),
+                           t.z(), q.w(), q.x(), q.y(), q.z());
+}
+
+std::string Header(std::size_t count, PcdEncoding encoding, const Pose& sensor_pose) {
     return absl::StrCat(
         "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\n"
         "TYPE F F F\nCOUNT 1 1 1\nWIDTH ",
-        count, "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS ", count, "\nDATA ", DataName(encoding),
-        "\n");
+        count, "\nHEIGHT 1\n", Viewpoint(sensor_pose), "POINTS ", count, "\nDATA ",
+        DataName(encoding), "\n");
 }
 
 // Sizes, then LZF of all x, all y, all z (little-endian); nullopt when too large.
@@ -65,13 +74,13 @@ std::optional<std::string> CompressedBody(const Cloud& points) {
 
 }  // namespace
 
-std::string EncodePcd(const Cloud& points, PcdEncoding encoding) {
+std::string EncodePcd(const Cloud& points, PcdEncoding encoding, const Pose& sensor_pose) {
     std::optional<std::string> compressed;
     if (encoding == PcdEncoding::kBinaryCompressed) {
         compressed = CompressedBody(points);
         if (!compressed) encoding = PcdEncoding::kBinary;
     }
-    std::string out = Header(points.size(), encoding);
+    std::string out = Header(points.size(), encoding, sensor_pose);
     switch (encoding) {
         case PcdEncoding::kAscii:
             detail::AppendAsciiXyz(points, &out);

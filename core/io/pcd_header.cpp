@@ -1,6 +1,9 @@
 #include "core/io/pcd_header.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <optional>
 #include <utility>
 
@@ -20,6 +23,9 @@ absl::Status HeaderError(absl::string_view what) {
 
 constexpr std::string_view kKeywords[] = {"VERSION", "FIELDS", "SIZE",   "TYPE", "COUNT",
                                           "WIDTH",   "HEIGHT", "POINTS", "DATA", "VIEWPOINT"};
+
+// Seven written digits give a norm within 1e-6 of 1; more than 1e-3 off is not a rotation.
+constexpr double kUnitQuaternionTolerance = 1e-3;
 
 absl::Status CheckField(const PcdField& field) {
     const std::string where = absl::StrCat(" of field '", Printable(field.name), "'");
@@ -58,7 +64,7 @@ class PcdHeaderParser {
         if (key == "HEIGHT") return ParseSingle("HEIGHT", values, &height_);
         if (key == "POINTS") return ParseSingle("POINTS", values, &points_);
         if (key == "DATA") return ParseData(values);
-        return absl::OkStatus();  // VIEWPOINT does not change the points
+        return ParseViewpoint(values);
     }
 
     absl::StatusOr<PcdHeader> Finish(std::size_t body_offset) && {
@@ -114,6 +120,32 @@ class PcdHeaderParser {
             return HeaderError(absl::StrCat(key, " needs one non-negative integer"));
         }
         *number = value;
+        return absl::OkStatus();
+    }
+
+    // VIEWPOINT tx ty tz qw qx qy qz: the sensor's position and orientation (a unit quaternion,
+    // normalised here) in the cloud's frame, as PCL's sensor_origin_ / sensor_orientation_.
+    absl::Status ParseViewpoint(const Tokens& values) {
+        std::array<double, 7> v{};
+        if (values.size() != v.size()) {
+            return HeaderError(absl::StrCat("VIEWPOINT needs 7 numbers, got ", values.size()));
+        }
+        for (std::size_t i = 0; i < v.size(); ++i) {
+            if (!ParseFiniteDouble(values[i], &v[i])) {
+                return HeaderError(
+                    absl::StrCat("VIEWPOINT value '", Printable(values[i]), "' is not a number"));
+            }
+        }
+        Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+        const double norm = q.norm();
+        if (!(std::abs(norm - 1.0) <= kUnitQuaternionTolerance)) {
+            return HeaderError(absl::StrCat(
+                "VIEWPOINT orientation qw qx qy qz is not a unit quaternion (norm ", norm, ")"));
+        }
+        q.normalize();
+        header_.viewpoint = Pose::Identity();
+        header_.viewpoint.linear() = q.toRotationMatrix();
+        header_.viewpoint.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
         return absl::OkStatus();
     }
 

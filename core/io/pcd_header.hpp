@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/common/types.hpp"
 #include "core/io/scalar_type.hpp"
 
 namespace soilvol::io::detail {
@@ -34,6 +35,8 @@ struct PcdHeader {
     std::array<std::size_t, 3> xyz_field{};  ///< indices into `fields`
     std::uint64_t point_size = 0;            ///< sum of size * count [bytes]
     std::size_t body_offset = 0;             ///< first byte after the DATA line
+    /// VIEWPOINT: the sensor's pose in the cloud's frame (identity when absent).
+    Pose viewpoint = Pose::Identity();
 };
 
 /// Storage type of a coordinate field (TYPE F, SIZE 4 or 8).

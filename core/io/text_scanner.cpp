@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <system_error>
 
@@ -81,6 +82,15 @@ bool ParseUint64(std::string_view token, std::uint64_t* value) {
     if (token.empty()) return false;
     const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), *value);
     return error == std::errc() && end == token.data() + token.size();
+}
+
+bool ParseFiniteDouble(std::string_view token, double* value) {
+    if (token.size() > 1 && token[0] == '+' && token[1] != '-' && token[1] != '+') {
+        token.remove_prefix(1);
+    }
+    const auto result = ParseFloating(token, value);
+    return result.ec == std::errc() && result.ptr == token.data() + token.size() &&
+           std::isfinite(*value);
 }
 
 bool ParseCoordinate(std::string_view token, bool as_double, float* value) {

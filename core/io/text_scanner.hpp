@@ -66,6 +66,9 @@ bool ParseUint64(std::string_view token, std::uint64_t* value);
 /// double first when `as_double`; values beyond the float range become +-Inf.
 bool ParseCoordinate(std::string_view token, bool as_double, float* value);
 
+/// Parses a whole token as a finite decimal number; false on garbage, NaN, Inf or overflow.
+bool ParseFiniteDouble(std::string_view token, double* value);
+
 /// `text` cut to 24 characters with non-printable bytes replaced, for error messages.
 std::string Printable(std::string_view text);
 

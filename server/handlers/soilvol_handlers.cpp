@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/cloud/sensor_frame.hpp"
 #include "core/common/build_info.hpp"
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
@@ -235,8 +236,13 @@ absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(
             Timer timer;
             absl::StatusOr<io::DecodedCloud> cloud = io::DecodeCloud(scan.cloud().data());
             if (!cloud.ok()) return Annotate(cloud.status(), "scan.cloud.data");
+            Pose sensor_pose = cloud->sensor_pose;  // the PCD's VIEWPOINT, if any
+            if (scan.cloud().has_sensor_pose()) {
+                SOILVOL_ASSIGN_OR_RETURN(
+                    sensor_pose, ToPose(scan.cloud().sensor_pose(), "scan.cloud.sensor_pose"));
+            }
+            out.cloud = cloud::InSensorFrame(std::move(cloud->points), sensor_pose);
             out.decode_ms = timer.Lap();
-            out.cloud = std::move(cloud->points);
             out.dropped_nonfinite = cloud->dropped_nonfinite;
             return out;
         }

@@ -45,6 +45,9 @@ TEST(Cli, UsageErrorsExitTwo) {
         {"estimate", "--id", "x", "--depth", "d.png", "--intrinsics", "1,2,3,4", "--lens", "fish"},
         {"estimate", "--id", "x", "--cloud", "a.ply", "--confidence", "c.png"},
         {"register", "--id", "x", "--intrinsics", "1,2,3,4", "--cloud", "a.ply"},
+        {"estimate", "--id", "x", "--depth", "d.png", "--intrinsics", "1,2,3,4", "--sensor-pose",
+         "0,0,5,1,0,0,0"},
+        {"estimate", "--id", "x", "--cloud", "a.ply", "--sensor-pose", "0,0,5,1,0,0"},
     };
     for (const auto& args : cases) {
         testing::internal::CaptureStderr();

@@ -163,6 +163,11 @@ int main(int argc, char** argv) {
           std::string(1, '\0') + soilvol::io::EncodePly(cloud, PlyEncoding::kBinaryBigEndian));
     Write(root / "fuzz_cloud_decoder", "pcd_binary",
           std::string(1, '\0') + soilvol::io::EncodePcd(cloud));
+    soilvol::Pose sensor = soilvol::Pose::Identity();
+    sensor.translation() = Eigen::Vector3d(3.0, -2.0, 5.0);
+    sensor.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX()).matrix();
+    Write(root / "fuzz_cloud_decoder", "pcd_viewpoint",
+          std::string(1, '\0') + soilvol::io::EncodePcd(cloud, PcdEncoding::kAscii, sensor));
     Write(root / "fuzz_cloud_decoder", "pcd_ascii",
           std::string(1, '\0') + soilvol::io::EncodePcd(cloud, PcdEncoding::kAscii));
     Write(root / "fuzz_cloud_decoder", "pcd_compressed",

@@ -6,6 +6,8 @@ import sys
 import tempfile
 import unittest
 
+import numpy as np
+
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
 import depth_scene  # noqa: E402
@@ -49,6 +51,35 @@ class Cli(unittest.TestCase):
         left = [c["containerId"] for c in listed.get("containers", [])
                 if c["containerId"].startswith("demo-")]
         self.assertEqual(left, [], "the demo deletes what it made")
+
+    def test_a_site_frame_cloud_with_its_sensor_pose(self):
+        # test_sensor_pose.py's gantry: the camera 5 m up, tilted 30 deg about x.
+        tilt = np.radians(30.0)
+        rotation = np.array([[1, 0, 0], [0, np.cos(tilt), -np.sin(tilt)],
+                             [0, np.sin(tilt), np.cos(tilt)]])
+        origin = np.array([3.0, -2.0, 5.0])
+        pose = ",".join(f"{v:.17g}" for v in (*origin, np.cos(tilt / 2), np.sin(tilt / 2), 0, 0))
+        with tempfile.TemporaryDirectory() as tmp:
+            paths = {}
+            for name, fill, seed in (("empty", 0.0, 21), ("full", 0.2, 22)):
+                z = depth_scene.millimetres(depth_scene.render(fill, 0.002, seed=seed))
+                points = depth_scene.back_project_as_core(z)
+                site = points.astype(np.float64) @ rotation.T + origin
+                for frame, cloud in (("sensor", points), ("site", site)):
+                    paths[name, frame] = os.path.join(tmp, f"{name}-{frame}.ply")
+                    with open(paths[name, frame], "wb") as f:
+                        f.write(box_scene.encode_ply(cloud))
+            corners = ";".join(f"{x},{y},{z}" for x, y, z in depth_scene.opening_corners())
+            self.run_cli("register", "--id", "cli-gantry", "--cloud", paths["empty", "site"],
+                         "--sensor-pose", pose, "--corners", corners)
+            in_site = json.loads(self.run_cli("--json", "estimate", "--id", "cli-gantry",
+                                              "--cloud", paths["full", "site"],
+                                              "--sensor-pose", pose).stdout)
+            in_sensor = json.loads(self.run_cli("--json", "estimate", "--id", "cli-gantry",
+                                                "--cloud", paths["full", "sensor"]).stdout)
+            self.assertLess(abs(in_site["volumeM3"] - in_sensor["volumeM3"]),
+                            0.0005 * box_scene.STRUCK_M3)
+            self.run_cli("containers", "delete", "cli-gantry")
 
     def test_register_and_estimate_from_depth_images(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -243,6 +243,47 @@ TEST(PcdDecoderTest, AsciiGarbageIsRejected) {
                               "expected 2 points but the data ends after 1"));
 }
 
+// A unit quaternion of a 30 deg turn about (1, 2, 2) / 3 and a sensor 5 m up.
+Pose GantrySensor() {
+    Pose pose = Pose::Identity();
+    pose.linear() =
+        Eigen::AngleAxisd(30.0 * M_PI / 180.0, Eigen::Vector3d(1.0, 2.0, 2.0) / 3.0).matrix();
+    pose.translation() = Eigen::Vector3d(3.0, -2.0, 5.0);
+    return pose;
+}
+
+TEST(PcdDecoderTest, ViewpointIsTheSensorsPose) {
+    const Pose sensor = GantrySensor();
+    for (const PcdEncoding encoding :
+         {PcdEncoding::kAscii, PcdEncoding::kBinary, PcdEncoding::kBinaryCompressed}) {
+        const auto decoded = DecodeCloud(EncodePcd(kThree, encoding, sensor));
+        ASSERT_TRUE(decoded.ok()) << decoded.status();
+        EXPECT_TRUE(decoded->sensor_pose.isApprox(sensor, 1e-12)) << static_cast<int>(encoding);
+        EXPECT_EQ(decoded->points, kThree);
+    }
+    // Absent, and in PLY: the sensor at the origin.
+    EXPECT_TRUE(DecodeCloud(XyzHeader("POINTS 1\n", "ascii") + "1 2 3\n")
+                    ->sensor_pose.isApprox(Pose::Identity(), 0.0));
+    EXPECT_TRUE(DecodeCloud(EncodePly(kThree))->sensor_pose.isApprox(Pose::Identity(), 0.0));
+}
+
+TEST(PcdDecoderTest, BadViewpointsAreRejected) {
+    const auto with = [](const std::string& viewpoint) {
+        return DecodeCloud(XyzHeader("VIEWPOINT " + viewpoint + "\nPOINTS 1\n", "ascii") +
+                           "1 2 3\n");
+    };
+    EXPECT_TRUE(IsInvalidWith(with("0 0 0 1 0 0"), "VIEWPOINT needs 7 numbers, got 6"));
+    EXPECT_TRUE(IsInvalidWith(with("0 0 0 1 0 0 0 0"), "VIEWPOINT needs 7 numbers, got 8"));
+    EXPECT_TRUE(IsInvalidWith(with("0 0 nan 1 0 0 0"), "VIEWPOINT value 'nan' is not a number"));
+    EXPECT_TRUE(IsInvalidWith(with("0 0 1e999 1 0 0 0"), "is not a number"));
+    EXPECT_TRUE(IsInvalidWith(with("0 0 0 0 0 0 0"), "is not a unit quaternion (norm 0)"));
+    EXPECT_TRUE(IsInvalidWith(with("0 0 0 1 1 0 0"), "is not a unit quaternion"));
+    // Written to seven digits, as PCL does: accepted, and normalised.
+    const auto rounded = with("1 2 3 0.7071068 0.7071068 0 0");
+    ASSERT_TRUE(rounded.ok()) << rounded.status();
+    EXPECT_NEAR(Eigen::Quaterniond(rounded->sensor_pose.linear()).norm(), 1.0, 1e-12);
+}
+
 // --- Compatibility with PCL's own writer and reader, through temporary files.
 
 std::string TempPath(const std::string& name) {
@@ -286,6 +327,26 @@ TEST(PcdDecoderTest, PclWrittenFilesDecode) {
             EXPECT_LT((decoded->points[i] - cloud[i]).norm(), 1e-4f) << i;
         }
     }
+    std::remove(path.c_str());
+}
+
+TEST(PcdDecoderTest, PclAndWeAgreeOnTheViewpoint) {
+    const Pose sensor = GantrySensor();
+    const std::string path = TempPath("viewpoint.pcd");
+    std::ofstream(path, std::ios::binary) << EncodePcd(kThree, PcdEncoding::kBinary, sensor);
+    pcl::PCLPointCloud2 blob;
+    Eigen::Vector4f origin;
+    Eigen::Quaternionf orientation;
+    ASSERT_EQ(pcl::io::loadPCDFile(path, blob, origin, orientation), 0);
+    EXPECT_TRUE(origin.head<3>().isApprox(sensor.translation().cast<float>(), 1e-6f));
+    EXPECT_TRUE(orientation.toRotationMatrix().isApprox(sensor.linear().cast<float>(), 1e-6f));
+    pcl::PointCloud<pcl::PointXYZ> pcl_cloud = ToPcl(kThree);
+    pcl_cloud.sensor_origin_ = origin;
+    pcl_cloud.sensor_orientation_ = orientation;
+    ASSERT_EQ(pcl::io::savePCDFileBinary(path, pcl_cloud), 0);
+    const auto decoded = DecodeCloud(ReadFile(path));
+    ASSERT_TRUE(decoded.ok()) << decoded.status();
+    EXPECT_TRUE(decoded->sensor_pose.isApprox(sensor, 1e-6));
     std::remove(path.c_str());
 }
 
