@@ -34,16 +34,15 @@ absl::Status CheckImages(const ScalarImage& depth, const ScalarImage* confidence
     return absl::OkStatus();
 }
 
-// Each pixel's z-depth [m] (NaN where dropped before the flying-pixel filter), counting why.
+// Each pixel's z-depth [m] (0 where there is no return or too little confidence), counting
+// why. Only range images need the rays here (z = range / |ray|); a z image is read as stored.
 std::vector<float> ZDepths(const ScalarImage& depth, const ScalarImage* confidence,
                            const DepthCamera& camera, const RayTable& rays,
                            const DepthScanConfig& config, DepthScanCounts& counts) {
     const float unit = static_cast<float>(DepthUnitOf(camera, depth.bits));
-    const float nan = std::nanf("");
     const auto min_confidence = static_cast<float>(config.min_confidence);
-    const auto min_range = static_cast<float>(config.min_range_m);
-    const auto max_range = static_cast<float>(config.max_range_m);
-    std::vector<float> z(depth.values.size(), nan);
+    const bool is_range = camera.meaning == DepthMeaning::kRange;
+    std::vector<float> z(depth.values.size(), 0.0f);
     for (std::size_t i = 0; i < depth.values.size(); ++i) {
         const float value = depth.values[i] * unit;
         if (!(value > 0.0f) || !std::isfinite(value)) {
@@ -54,19 +53,17 @@ std::vector<float> ZDepths(const ScalarImage& depth, const ScalarImage* confiden
             ++counts.low_confidence;
             continue;
         }
-        const Eigen::Vector2f& ray = rays.At(static_cast<int>(i));
-        if (!std::isfinite(ray.x())) {
-            ++counts.no_ray;
+        if (!is_range) {
+            z[i] = value;
             continue;
         }
-        const float stretch = std::sqrt(1.0f + ray.squaredNorm());  // range per unit of z
-        const float pixel_z = camera.meaning == DepthMeaning::kZ ? value : value / stretch;
-        const float range = pixel_z * stretch;
-        if (!(range >= min_range && range <= max_range && pixel_z > 0.0f)) {  // NaN too
+        const Eigen::Vector2f& ray = rays.At(static_cast<int>(i));
+        const float pixel_z = value / std::sqrt(1.0f + ray.squaredNorm());
+        if (std::isfinite(ray.x()) && !(pixel_z > 0.0f)) {  // a sub-normal range, far off axis
             ++counts.out_of_range;
             continue;
         }
-        z[i] = pixel_z;
+        z[i] = pixel_z;  // NaN without a ray: counted when the points are made
     }
     return z;
 }
@@ -89,16 +86,30 @@ absl::StatusOr<DepthCloud> BackProject(const ScalarImage& depth, const ScalarIma
     const std::vector<float> z = ZDepths(depth, confidence, camera, *rays, config, out.counts);
     const std::vector<std::uint8_t> flying =
         FindFlyingPixels(z, depth.width, depth.height, config.flying);
+    // The filter sees every return, the range cut's too: edges are where the scene has them.
+    const auto min_range = static_cast<float>(config.min_range_m);
+    const auto max_range = static_cast<float>(config.max_range_m);
     out.points.reserve(z.size());
     out.pixel.reserve(z.size());
     for (std::size_t i = 0; i < z.size(); ++i) {
-        if (!(z[i] > 0.0f)) continue;
+        const float pixel_z = z[i];
+        if (pixel_z == 0.0f) continue;  // counted by ZDepths
+        const Eigen::Vector2f& ray = rays->At(static_cast<int>(i));
+        if (!std::isfinite(ray.x()) || !std::isfinite(pixel_z)) {
+            ++out.counts.no_ray;
+            continue;
+        }
         if (flying[i] != 0) {
             ++out.counts.flying;
             continue;
         }
-        const Eigen::Vector2f& ray = rays->At(static_cast<int>(i));
-        out.points.emplace_back(ray.x() * z[i], ray.y() * z[i], z[i]);
+        const Eigen::Vector3f point(ray.x() * pixel_z, ray.y() * pixel_z, pixel_z);
+        const float range = point.norm();
+        if (!(range >= min_range && range <= max_range)) {
+            ++out.counts.out_of_range;
+            continue;
+        }
+        out.points.push_back(point);
         out.pixel.push_back(static_cast<std::int32_t>(i));
     }
     return out;

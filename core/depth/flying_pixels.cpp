@@ -19,44 +19,25 @@ constexpr double kStraightSigmas = 3.0;
 constexpr double kEdgeSigmas = 6.0;
 constexpr double kAbruptPerPixel = 4.0;
 
-// The depth image with 0 wherever there is no return (NaN, 0, negative).
+// The depth image; 0, NaN or a negative depth: no return.
 class Image {
   public:
     Image(const std::vector<float>& z, int width, int height)
-        : z_(z.size()), width_(width), height_(height) {
-        for (std::size_t i = 0; i < z.size(); ++i) z_[i] = z[i] > 0.0f ? z[i] : 0.0f;
-        offsets_ = {1, static_cast<std::ptrdiff_t>(width), static_cast<std::ptrdiff_t>(width) + 1,
-                    1 - static_cast<std::ptrdiff_t>(width)};
-    }
+        : z_(z.data()), width_(width), height_(height) {}
 
     // The depth at (u, v); 0 outside the image or without a return.
     float At(int u, int v) const {
         if (u < 0 || v < 0 || u >= width_ || v >= height_) return 0.0f;
-        return z_[static_cast<std::size_t>(v) * width_ + u];
+        const float z = z_[static_cast<std::size_t>(v) * width_ + u];
+        return z > 0.0f ? z : 0.0f;
     }
 
     double Depth(int u, int v) const { return static_cast<double>(At(u, v)); }
 
-    // Whether some direction's two neighbours of interior pixel i (depth z) lie apart by more
-    // than `jump` with z between them: the cheap half of IsFlying's test, for every pixel.
-    bool MayBeOnEdge(std::size_t i, float z, float jump) const {
-        const float* p = z_.data() + i;
-        for (const std::ptrdiff_t o : offsets_) {
-            const float a = p[-o];
-            const float b = p[o];
-            if (a > 0.0f && b > 0.0f && std::abs(a - b) > jump && z >= std::min(a, b) &&
-                z <= std::max(a, b)) {
-                return true;
-            }
-        }
-        return false;
-    }
-
   private:
-    std::vector<float> z_;
+    const float* z_;
     int width_;
     int height_;
-    std::array<std::ptrdiff_t, 4> offsets_{};  ///< kDirections as index steps
 };
 
 // What one side of (u, v) along a direction holds: its three depths, 0 where missing.
@@ -109,6 +90,25 @@ bool IsFlying(const Image& image, int u, int v, double z, const FlyingPixelConfi
     return crossed;
 }
 
+// The cheap half of IsFlying's test, for the interior pixels 1..width-2 of a row (`up`, `row`
+// and `down` its rows): some direction's two neighbours are both returns, apart by more than
+// jump_ratio of the pixel's depth, with the pixel between them. Branch-free, so that the
+// compiler vectorises it: every pixel passes through here, few go further.
+void MarkEdgeCandidates(const float* up, const float* row, const float* down, int width,
+                        float jump_ratio, std::uint8_t* candidate) {
+    const auto across = [](float a, float b, float z, float jump) {
+        return (a > 0.0f) & (b > 0.0f) & (std::abs(a - b) > jump) & ((z - a) * (z - b) <= 0.0f);
+    };
+    for (int u = 1; u < width - 1; ++u) {
+        const float z = row[u];
+        const float jump = jump_ratio * z;
+        candidate[u] = static_cast<std::uint8_t>(
+            (z > 0.0f) &
+            (across(row[u - 1], row[u + 1], z, jump) | across(up[u], down[u], z, jump) |
+             across(up[u - 1], down[u + 1], z, jump) | across(down[u - 1], up[u + 1], z, jump)));
+    }
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> FindFlyingPixels(const std::vector<float>& z_m, int width, int height,
@@ -118,15 +118,20 @@ std::vector<std::uint8_t> FindFlyingPixels(const std::vector<float>& z_m, int wi
     const Image image(z_m, width, height);
     const float jump_ratio =
         static_cast<float>(std::max(config.jump_ratio, kEdgeSigmas * config.noise_at_1m_m));
+    std::vector<std::uint8_t> candidate(static_cast<std::size_t>(width), 1);
     for (int v = 0; v < height; ++v) {
         const bool border_row = v == 0 || v == height - 1;
+        if (!border_row) {
+            const float* row = z_m.data() + static_cast<std::size_t>(v) * width;
+            MarkEdgeCandidates(row - width, row, row + width, width, jump_ratio, candidate.data());
+        }
         for (int u = 0; u < width; ++u) {
-            const std::size_t i = static_cast<std::size_t>(v) * width + u;
+            const bool interior = !border_row && u > 0 && u < width - 1;
+            if (interior && candidate[static_cast<std::size_t>(u)] == 0) continue;
             const float z = image.At(u, v);
             if (z <= 0.0f) continue;
-            const bool interior = !border_row && u > 0 && u < width - 1;
-            if (interior && !image.MayBeOnEdge(i, z, jump_ratio * z)) continue;
-            flying[i] = IsFlying(image, u, v, static_cast<double>(z), config);
+            flying[static_cast<std::size_t>(v) * width + u] =
+                IsFlying(image, u, v, static_cast<double>(z), config);
         }
     }
     return flying;

@@ -30,7 +30,7 @@ struct FlyingPixelConfig {
     double jump_ratio = 0.02;
 };
 
-/// 1 for every flying pixel of a z-depth image [m] (row-major, NaN where there is no return),
+/// 1 for every flying pixel of a z-depth image [m] (row-major; 0 or NaN: no return),
 /// 0 elsewhere. Linear in pixels.
 std::vector<std::uint8_t> FindFlyingPixels(const std::vector<float>& z_m, int width, int height,
                                            const FlyingPixelConfig& config);
