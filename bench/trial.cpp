@@ -6,6 +6,7 @@
 #include <random>
 
 #include "core/common/timer.hpp"
+#include "core/depth/depth_scan.hpp"
 #include "core/model/mesh_model.hpp"
 #include "core/pipeline/registration.hpp"
 
@@ -22,6 +23,22 @@ std::string ContainerName(sim::ContainerKind kind) { return sim::ContainerDescri
 
 namespace {
 
+// The scan `spec` describes, taken by `setup`'s sensor: its ray grid, or its ToF camera's
+// depth image back-projected as the service does.
+sim::Scene Simulate(const Setup& setup, const sim::SceneSpec& spec) {
+    if (!setup.tof_camera) return sim::SimulateScene(spec);
+    sim::TofScene tof = sim::SimulateTofScene(spec, *setup.tof_camera);
+    depth::DepthCamera camera;
+    camera.intrinsics = tof.frame.intrinsics;
+    camera.depth_unit_m = 1.0;
+    depth::DepthScanConfig config;
+    config.flying.noise_at_1m_m = setup.tof_camera->noise_at_1m_m;
+    absl::StatusOr<depth::DepthCloud> cloud =
+        depth::BackProject(tof.frame.depth, nullptr, camera, config, "scan.depth");
+    if (cloud.ok()) tof.scene.points = std::move(cloud->points);
+    return std::move(tof.scene);
+}
+
 sim::SceneSpec EmptySpec(const Setup& setup, uint64_t seed) {
     sim::SceneSpec spec;
     spec.container = setup.container;
@@ -36,7 +53,7 @@ sim::SceneSpec EmptySpec(const Setup& setup, uint64_t seed) {
 }  // namespace
 
 EmptyScanCase SimulateEmpty(const Setup& setup, uint64_t seed) {
-    EmptyScanCase out{sim::SimulateScene(EmptySpec(setup, seed)), {}};
+    EmptyScanCase out{Simulate(setup, EmptySpec(setup, seed)), {}};
     out.corners = out.scene.opening_corners_scan;
     std::mt19937_64 rng(seed * 7919);
     std::normal_distribution<double> noise(0.0, 1.0);
@@ -72,7 +89,7 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
         sim::SceneSpec turned = spec;
         turned.sensor.azimuth_deg += 180.0;
         turned.scan_seed = spec.scan_seed + static_cast<uint64_t>(j) * 7;
-        const sim::Scene other = sim::SimulateScene(turned);
+        const sim::Scene other = Simulate(setup, turned);
         scans.push_back({other.points, other.opening_corners_scan});
     }
     RegisteredModel out{absl::UnknownError("not run"), empty.struck_capacity_m3, 0.0};
@@ -112,7 +129,7 @@ sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t
     spec.soil.perturbation_m = setup.perturbation_m;
     spec.soil_seed = seed;
     spec.scan_seed = seed * 1000 + 1 + scan_index;
-    return sim::SimulateScene(spec);
+    return Simulate(setup, spec);
 }
 
 SizedScene SceneOfAbout(std::size_t points, uint64_t seed) {

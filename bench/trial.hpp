@@ -8,6 +8,7 @@
 #include "core/model/container_model.hpp"
 #include "core/pipeline/estimator.hpp"
 #include "core/sim/scene.hpp"
+#include "core/sim/tof_camera.hpp"
 
 namespace soilvol::bench {
 
@@ -28,6 +29,9 @@ struct Setup {
     /// A fixed move of the container before each filled scan (its own frame), on top of the
     /// jitter.
     Pose move = Pose::Identity();
+    /// A ToF camera instead of `sensor`'s ray grid (`sensor` places it): each scan is its depth
+    /// image, back-projected as the service does (core/depth, flying-pixel filter on).
+    std::optional<sim::TofCameraSpec> tof_camera;
 };
 
 /// The paper's time-of-flight sensor (4 cm noise, 0.5 deg), placed 2.5-3 m away so that each

@@ -19,11 +19,17 @@ struct DemoOptions {
     sim::ContainerKind kind = sim::ContainerKind::kPaperBucket;
     std::string container = "paper";
     bool stereo = false;
+    bool depth = false;
     std::vector<double> fills = {0.0, 0.25, 0.5, 0.75, 1.0};
     uint64_t seed = 1;
     bool keep = false;
     std::string save_dir;
 };
+
+DemoSensor SensorOf(const DemoOptions& options) {
+    if (options.stereo) return DemoSensor::kStereo;
+    return options.depth ? DemoSensor::kDepth : DemoSensor::kCloud;
+}
 
 double MillisecondsSince(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -36,8 +42,9 @@ class DemoRun {
     DemoRun(const DemoOptions& options, const GlobalOptions& global)
         : options_(options),
           text_(!global.json),
-          setup_(MakeDemoSetup(options.kind, options.stereo, options.seed)),
-          id_("demo-" + options.container + (options.stereo ? "-stereo" : "")),
+          setup_(MakeDemoSetup(options.kind, SensorOf(options), options.seed)),
+          id_("demo-" + options.container + (options.stereo ? "-stereo" : "") +
+              (options.depth ? "-depth" : "")),
           connection_(global) {
         if (text_) {
             std::cout << "soilvol demo against " << global.server << ": " << DescribeDemo(setup_)
@@ -112,7 +119,7 @@ class DemoRun {
     bool Register() {
         const std::optional<DemoScan> empty = Simulate(0.0, 0, "empty");
         if (!empty) return false;
-        if (!options_.save_dir.empty() && !options_.stereo) {
+        if (!options_.save_dir.empty() && setup_.sensor == DemoSensor::kCloud) {
             const absl::Status saved =
                 SaveDemoMesh(options_.save_dir, MakeDemoMesh(setup_), empty->container_pose,
                              setup_.view.range_noise_sigma_m);
@@ -198,7 +205,12 @@ void AddDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code) 
     command->add_option("--container", options->container, "paper, excavator or truck")
         ->check(CLI::IsMember({"paper", "excavator", "truck"}))
         ->capture_default_str();
-    command->add_flag("--stereo", options->stereo, "rendered stereo pairs instead of clouds");
+    auto* stereo =
+        command->add_flag("--stereo", options->stereo, "rendered stereo pairs instead of clouds");
+    command
+        ->add_flag("--depth", options->depth,
+                   "a 640x480 ToF camera's 16-bit depth images instead of clouds")
+        ->excludes(stereo);
     command->add_option("--fills", options->fills, "fills as shares of the container depth")
         ->delimiter(',')
         ->check(CLI::Range(0.0, 2.0))
@@ -208,8 +220,8 @@ void AddDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code) 
         ->capture_default_str();
     command->add_flag("--keep", options->keep, "keep the container and calibration afterwards");
     command->add_option("--save-dir", options->save_dir,
-                        "also write the simulated scans, corners, poses, the container's mesh "
-                        "and rig parameters here");
+                        "also write the simulated scans, corners, poses, the container's mesh, "
+                        "rig parameters and depth camera here");
     command->callback([options, kinds, &global, exit_code] {
         options->kind = kinds.at(options->container);
         *exit_code = DemoRun(*options, global).Run();

@@ -51,6 +51,19 @@ absl::Status SaveDemoScan(const std::string& dir, const std::string& stem, const
     if (scan.scan.has_cloud()) {
         status.Update(WriteFile(dir, stem + ".ply", scan.scan.cloud().data()));
         status.Update(WriteFile(dir, stem + "-pose.txt", PoseArgument(scan.container_pose)));
+    } else if (scan.scan.has_depth()) {
+        const v1::DepthCamera& k = scan.scan.depth().camera();
+        status.Update(WriteFile(dir, stem + ".png", scan.scan.depth().depth()));
+        status.Update(WriteFile(dir, stem + "-pose.txt", PoseArgument(scan.container_pose)));
+        // The camera as the CLI's --intrinsics and as a REST query.
+        status.Update(WriteFile(
+            dir, "intrinsics.txt",
+            absl::StrFormat("%.17g,%.17g,%.17g,%.17g\n", k.fx(), k.fy(), k.cx(), k.cy())));
+        status.Update(WriteFile(dir, "camera-query.txt",
+                                absl::StrFormat("scan.depth.camera.fx=%.17g&scan.depth.camera.fy="
+                                                "%.17g&scan.depth.camera.cx=%.17g&scan.depth."
+                                                "camera.cy=%.17g\n",
+                                                k.fx(), k.fy(), k.cx(), k.cy())));
     } else {
         status.Update(WriteFile(dir, stem + "-left.png", scan.scan.stereo().left()));
         status.Update(WriteFile(dir, stem + "-right.png", scan.scan.stereo().right()));

@@ -1,5 +1,8 @@
 #include "client/demo_scene.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "absl/strings/str_format.h"
 #include "core/io/cloud_codec.hpp"
 #include "core/io/mesh_codec.hpp"
@@ -54,23 +57,62 @@ DemoScan CloudScan(const sim::SceneSpec& spec) {
     return out;
 }
 
+// The camera's frame as a 16-bit PNG in millimetres, as such cameras deliver it, with the
+// camera's intrinsics.
+absl::StatusOr<DemoScan> DepthScan(const sim::SceneSpec& spec, const DemoSetup& setup) {
+    const sim::TofScene tof = sim::SimulateTofScene(spec, setup.camera);
+    ScalarImage millimetres{tof.frame.depth.width, tof.frame.depth.height, 16, {}};
+    millimetres.values.reserve(tof.frame.depth.values.size());
+    for (const float z : tof.frame.depth.values) {
+        millimetres.values.push_back(std::clamp(std::round(z * 1000.0f), 0.0f, 65535.0f));
+    }
+    absl::StatusOr<std::string> png = stereo::EncodeScalar(millimetres);
+    if (!png.ok()) return png.status();
+    DemoScan out;
+    v1::DepthScan* depth = out.scan.mutable_depth();
+    depth->set_depth(*std::move(png));
+    depth->set_depth_noise_m(setup.camera.noise_at_1m_m);
+    const CameraIntrinsics& k = tof.frame.intrinsics;
+    depth->mutable_camera()->set_fx(k.fx);
+    depth->mutable_camera()->set_fy(k.fy);
+    depth->mutable_camera()->set_cx(k.cx);
+    depth->mutable_camera()->set_cy(k.cy);
+    AddCorners(tof.scene.opening_corners_scan, &out.opening);
+    server::ToProto(tof.scene.T_scan_container, &out.container_pose);
+    out.true_volume_m3 = tof.scene.true_volume_m3;
+    out.struck_capacity_m3 = tof.scene.struck_capacity_m3;
+    out.heaped_capacity_m3 = tof.scene.heaped_capacity_sae_m3;
+    return out;
+}
+
 }  // namespace
 
-DemoSetup MakeDemoSetup(sim::ContainerKind kind, bool stereo, uint64_t seed) {
+DemoSetup MakeDemoSetup(sim::ContainerKind kind, DemoSensor sensor, uint64_t seed) {
     DemoSetup setup;
     setup.kind = kind;
-    setup.stereo = stereo;
+    setup.sensor = sensor;
     setup.seed = seed;
     setup.view = sim::ViewpointFor(kind);
     setup.view.range_noise_sigma_m = 0.04;
     setup.view.angular_resolution_deg = 0.5;
     setup.depth_m = sim::MakeContainer(kind).depth_m;
-    if (stereo) setup.view.distance_m = sim::FramingDistance(setup.kind, setup.view, setup.rig);
+    if (sensor == DemoSensor::kStereo) {
+        setup.view.distance_m = sim::FramingDistance(setup.kind, setup.view, setup.rig);
+    }
     return setup;
 }
 
 std::string DescribeDemo(const DemoSetup& setup) {
-    if (setup.stereo) {
+    if (setup.sensor == DemoSensor::kDepth) {
+        return absl::StrFormat(
+            "%s, simulated %dx%d ToF camera (%.0f mm noise at 1 m, flying pixels, multipath) "
+            "%.2f m away, 16-bit depth images, container moved up to %.0f deg / %.0f cm between "
+            "scans",
+            sim::ContainerDescription(setup.kind), setup.camera.width, setup.camera.height,
+            setup.camera.noise_at_1m_m * 1000, setup.view.distance_m, setup.jitter.max_rotation_deg,
+            setup.jitter.max_translation_m * 100);
+    }
+    if (setup.sensor == DemoSensor::kStereo) {
         return absl::StrFormat(
             "%s, rendered %dx%d stereo pairs, %.0f cm baseline, %.2f m away, exact rig "
             "parameters, container moved up to %.0f deg / %.0f cm between pairs",
@@ -113,7 +155,14 @@ absl::StatusOr<DemoScan> SimulateDemoScan(const DemoSetup& setup, double fill_sh
     spec.soil.fill_height_m = fill_share * setup.depth_m;
     spec.soil_seed = setup.seed;
     spec.scan_seed = setup.seed * 1000 + scan_index;
-    if (setup.stereo) return StereoScan(spec, setup, calibration_id);
+    switch (setup.sensor) {
+        case DemoSensor::kStereo:
+            return StereoScan(spec, setup, calibration_id);
+        case DemoSensor::kDepth:
+            return DepthScan(spec, setup);
+        case DemoSensor::kCloud:
+            break;
+    }
     return CloudScan(spec);
 }
 

@@ -6,16 +6,22 @@
 #include "absl/status/statusor.h"
 #include "core/sim/scene.hpp"
 #include "core/sim/stereo_renderer.hpp"
+#include "core/sim/tof_camera.hpp"
 #include "soilvol/v1/soilvol.pb.h"
 
 namespace soilvol::client {
 
+/// What the demo's scans come from: the paper's time-of-flight sensor as clouds, a rendered
+/// stereo rig, or a ToF camera's depth images.
+enum class DemoSensor { kCloud, kStereo, kDepth };
+
 /// The demo's simulated set-up, as soilvol-bench's demos: the paper's time-of-flight sensor
-/// (4 cm, 0.5 deg) or its 640x480 stereo rig with a 10 cm baseline, the container moved by up
-/// to 3 deg / 5 cm between scans.
+/// (4 cm, 0.5 deg), its 640x480 stereo rig with a 10 cm baseline, or a typical ToF camera
+/// (sim::TypicalTofCamera), the container moved by up to 3 deg / 5 cm between scans.
 struct DemoSetup {
     sim::ContainerKind kind = sim::ContainerKind::kPaperBucket;
-    bool stereo = false;
+    DemoSensor sensor = DemoSensor::kCloud;
+    sim::TofCameraSpec camera = sim::TypicalTofCamera();  ///< for depth images
     uint64_t seed = 1;
     sim::SensorSpec view;  ///< the sensor; for stereo only its distance, elevation, azimuth
     sim::StereoRigSpec rig;
@@ -25,7 +31,7 @@ struct DemoSetup {
 
 /// The set-up for `kind`; for stereo, the nearest distance from 2.5 m at which the opening
 /// stays 40 px inside the image.
-DemoSetup MakeDemoSetup(sim::ContainerKind kind, bool stereo, uint64_t seed);
+DemoSetup MakeDemoSetup(sim::ContainerKind kind, DemoSensor sensor, uint64_t seed);
 
 /// One line describing the set-up.
 std::string DescribeDemo(const DemoSetup& setup);
@@ -37,8 +43,8 @@ v1::StereoParameters DemoRigParameters(const DemoSetup& setup);
 struct DemoScan {
     v1::Scan scan;
     v1::Opening opening;  ///< true corners: 3D in the scan frame, or left-image pixels (stereo)
-    /// Cloud scans: the container's true pose in the scan frame (the frame of its mesh,
-    /// DemoMesh, in the sensor's).
+    /// Cloud and depth scans: the container's true pose in the scan frame (the frame of its
+    /// mesh, DemoMesh, in the sensor's).
     v1::Pose container_pose;
     double true_volume_m3 = 0.0;
     double struck_capacity_m3 = 0.0;

@@ -36,25 +36,29 @@ SensorSpec ViewpointFor(ContainerKind kind) {
     return sensor;
 }
 
+Scene PlaceScene(const SceneSpec& spec, const ContainerGeometry& container, const SoilSurface& soil,
+                 std::mt19937_64* rng) {
+    Scene scene;
+    scene.T_scan_container =
+        NominalScanPose(spec.sensor) * spec.move * JitterPose(spec.jitter, rng);
+    for (size_t i = 0; i < container.opening_corners.size(); ++i) {
+        scene.opening_corners_scan[i] = scene.T_scan_container * container.opening_corners[i];
+    }
+    scene.true_volume_m3 = soil.Volume(kTruthCellM);
+    scene.struck_capacity_m3 = container.struck_capacity_m3;
+    scene.heaped_capacity_sae_m3 = HeapedCapacity(container, 1.0);
+    scene.heaped_capacity_iso_m3 = HeapedCapacity(container, 0.5);
+    return scene;
+}
+
 Scene SimulateScene(const SceneSpec& spec) {
     const ContainerGeometry container =
         spec.shape ? MakeContainer(*spec.shape) : MakeContainer(spec.container);
     const SoilSurface soil(container, spec.soil, spec.soil_seed);
     std::mt19937_64 rng(spec.scan_seed);
-
-    Scene scene;
-    scene.T_scan_container =
-        NominalScanPose(spec.sensor) * spec.move * JitterPose(spec.jitter, &rng);
-    for (size_t i = 0; i < container.opening_corners.size(); ++i) {
-        scene.opening_corners_scan[i] = scene.T_scan_container * container.opening_corners[i];
-    }
+    Scene scene = PlaceScene(spec, container, soil, &rng);
     scene.points =
         TofSensor(spec.sensor).Scan(SceneRaycaster(container, soil), scene.T_scan_container, &rng);
-
-    scene.true_volume_m3 = soil.Volume(kTruthCellM);
-    scene.struck_capacity_m3 = container.struck_capacity_m3;
-    scene.heaped_capacity_sae_m3 = HeapedCapacity(container, 1.0);
-    scene.heaped_capacity_iso_m3 = HeapedCapacity(container, 0.5);
     return scene;
 }
 

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -146,6 +147,15 @@ struct Scene {
 /// face (the low side of a high-side bin, behind an excavator's back), at a distance that keeps
 /// the whole container in a 60 deg view; angles drawn from `seed`.
 SensorSpec ViewpointFor(const ContainerShape& shape, uint64_t seed);
+
+class SoilSurface;
+
+/// A scan's truth without its points: the container placed by `spec` (the sensor's viewpoint,
+/// the move, then the jitter drawn from `rng`), its opening corners in the scan frame, the
+/// soil's volume and the capacities. SimulateScene and SimulateTofScene cast their rays into
+/// it.
+Scene PlaceScene(const SceneSpec& spec, const ContainerGeometry& container, const SoilSurface& soil,
+                 std::mt19937_64* rng);
 
 /// Simulates one scan; deterministic for a given spec.
 Scene SimulateScene(const SceneSpec& spec);

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstddef>
 
+#include "core/sim/soil_surface.hpp"
+
 namespace soilvol::sim {
 namespace {
 
@@ -211,6 +213,27 @@ TofFrame RenderTof(const SceneRaycaster& scene, const Pose& T_scan_container,
         frame.depth.values[i] = static_cast<float>(measured * hits.ray[i].z());
     }
     return frame;
+}
+
+TofCameraSpec TypicalTofCamera() {
+    TofCameraSpec camera;
+    camera.width = 640;
+    camera.height = 480;
+    camera.horizontal_fov_deg = 67.0;
+    camera.noise_at_1m_m = 0.003;
+    camera.multipath_m = 0.02;
+    return camera;
+}
+
+TofScene SimulateTofScene(const SceneSpec& spec, const TofCameraSpec& camera) {
+    const ContainerGeometry container =
+        spec.shape ? MakeContainer(*spec.shape) : MakeContainer(spec.container);
+    const SoilSurface soil(container, spec.soil, spec.soil_seed);
+    std::mt19937_64 rng(spec.scan_seed);
+    TofScene out{PlaceScene(spec, container, soil, &rng), {}};
+    out.frame =
+        RenderTof(SceneRaycaster(container, soil), out.scene.T_scan_container, camera, &rng);
+    return out;
 }
 
 }  // namespace soilvol::sim

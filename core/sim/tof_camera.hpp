@@ -7,6 +7,7 @@
 #include "core/common/camera.hpp"
 #include "core/common/image.hpp"
 #include "core/common/types.hpp"
+#include "core/sim/scene.hpp"
 #include "core/sim/scene_raycaster.hpp"
 
 namespace soilvol::sim {
@@ -35,6 +36,11 @@ struct TofCameraSpec {
     double multipath_reach_m = 0.15;
 };
 
+/// A typical camera of that class (Basler blaze-101, ifm O3R, SICK Visionary-T): 640x480
+/// over 67 deg, 3 mm noise at 1 m head-on, flying pixels at every depth edge, multipath up to
+/// 2 cm in concave corners.
+TofCameraSpec TypicalTofCamera();
+
 /// One frame: the z-depth image [m] (float; 0 where nothing returned), the amplitude image
 /// (relative, as the spec defines it), the camera, and the simulator's truth per pixel.
 struct TofFrame {
@@ -53,5 +59,14 @@ struct TofFrame {
 /// (x right, y down, z forward). Noise is drawn from `rng`.
 TofFrame RenderTof(const SceneRaycaster& scene, const Pose& T_scan_container,
                    const TofCameraSpec& spec, std::mt19937_64* rng);
+
+/// `spec`'s scan taken by a ToF camera instead of its sensor's ray grid: the container and soil
+/// placed as SimulateScene places them (spec.sensor gives the viewpoint), with the truth, and
+/// the frame (scene.points is left empty: the depth image is the scan).
+struct TofScene {
+    Scene scene;
+    TofFrame frame;
+};
+TofScene SimulateTofScene(const SceneSpec& spec, const TofCameraSpec& camera);
 
 }  // namespace soilvol::sim

@@ -11,7 +11,7 @@ namespace soilvol::client {
 namespace {
 
 TEST(DemoRigParameters, CarryTheWholeRig) {
-    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, true, 1);
+    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, DemoSensor::kStereo, 1);
     const v1::StereoParameters p = DemoRigParameters(setup);
     EXPECT_EQ(p.image_width(), 640);
     EXPECT_EQ(p.image_height(), 480);
@@ -24,7 +24,7 @@ TEST(DemoRigParameters, CarryTheWholeRig) {
 }
 
 TEST(SimulateDemoScan, CloudScansAreSeededPlyWithTheirTruth) {
-    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, false, 3);
+    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, DemoSensor::kCloud, 3);
     const auto empty = SimulateDemoScan(setup, 0.0, 0, "");
     const auto half = SimulateDemoScan(setup, 0.5, 1, "");
     ASSERT_TRUE(empty.ok() && half.ok());
@@ -38,8 +38,22 @@ TEST(SimulateDemoScan, CloudScansAreSeededPlyWithTheirTruth) {
     EXPECT_NE(SimulateDemoScan(setup, 0.5, 2, "")->scan.cloud().data(), half->scan.cloud().data());
 }
 
+TEST(SimulateDemoScan, DepthScansAre16BitPngsOfTheCameraWithTheirTruth) {
+    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, DemoSensor::kDepth, 3);
+    const auto half = SimulateDemoScan(setup, 0.5, 1, "");
+    ASSERT_TRUE(half.ok()) << half.status();
+    ASSERT_TRUE(half->scan.has_depth());
+    const v1::DepthScan& depth = half->scan.depth();
+    EXPECT_EQ(depth.depth().substr(1, 3), "PNG");
+    EXPECT_NEAR(depth.camera().cx(), (setup.camera.width - 1) / 2.0, 1e-9);
+    EXPECT_GT(depth.camera().fx(), 0.0);
+    EXPECT_EQ(half->opening.corners_size(), 4);
+    EXPECT_NEAR(half->true_volume_m3 / half->struck_capacity_m3, 0.5, 0.05);
+    EXPECT_EQ(SimulateDemoScan(setup, 0.5, 1, "")->scan.depth().depth(), depth.depth());
+}
+
 TEST(MakeDemoMesh, IsTheBucketsSurfaceWithItsCornersAndTheScansPoseOfIt) {
-    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, false, 3);
+    const DemoSetup setup = MakeDemoSetup(sim::ContainerKind::kPaperBucket, DemoSensor::kCloud, 3);
     const DemoMesh mesh = MakeDemoMesh(setup);
     const absl::StatusOr<io::DecodedMesh> decoded = io::DecodeMesh(mesh.stl);
     ASSERT_TRUE(decoded.ok()) << decoded.status();

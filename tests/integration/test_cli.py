@@ -20,6 +20,9 @@ from harness import CLI_BIN, shared_server  # noqa: E402
 CLOUD_LIMIT_PCT = 4.0
 # Stereo reads the full bucket 5% low: its registered capacity is 6% low (issue 11, item 6).
 STEREO_LIMIT_PCT = 6.0
+# A 640x480 ToF camera's depth images (flying pixels, multipath): issue 29's max is 2% of struck
+# (measured: 0.92% at worst).
+DEPTH_LIMIT_PCT = 2.0
 
 
 class Cli(unittest.TestCase):
@@ -40,8 +43,9 @@ class Cli(unittest.TestCase):
             self.assertEqual(proc.returncode, 0, proc.stderr)
         return proc
 
-    def test_demo_cloud_and_stereo_meet_their_accuracy(self):
-        for extra, limit in (([], CLOUD_LIMIT_PCT), (["--stereo"], STEREO_LIMIT_PCT)):
+    def test_demo_cloud_stereo_and_depth_meet_their_accuracy(self):
+        for extra, limit in (([], CLOUD_LIMIT_PCT), (["--stereo"], STEREO_LIMIT_PCT),
+                             (["--depth"], DEPTH_LIMIT_PCT)):
             with self.subTest(extra=extra):
                 rows = json.loads(self.run_cli("--json", "demo", *extra).stdout)
                 self.assertEqual(len(rows), 5)

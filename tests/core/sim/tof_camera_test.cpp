@@ -136,5 +136,29 @@ TEST(TofCameraTest, NoiseGrowsWithRangeAsTheModelSays) {
     EXPECT_NEAR(std::sqrt(sum2 / static_cast<double>(n)), 1.0, 0.05);
 }
 
+TEST(TofCameraTest, TofScenesPlaceTheContainerAsCloudScenesDo) {
+    SceneSpec spec;
+    spec.sensor = ViewpointFor(ContainerKind::kPaperBucket);
+    spec.jitter = {3.0, 0.05};
+    spec.soil.fill_height_m = 0.2;
+    spec.scan_seed = 9;
+    const Scene cloud = SimulateScene(spec);
+    const TofScene tof = SimulateTofScene(spec, Clean());
+    EXPECT_TRUE(tof.scene.T_scan_container.isApprox(cloud.T_scan_container, 1e-12));
+    EXPECT_EQ(tof.scene.true_volume_m3, cloud.true_volume_m3);
+    EXPECT_EQ(tof.scene.struck_capacity_m3, cloud.struck_capacity_m3);
+    EXPECT_TRUE(tof.scene.points.empty());
+    // The camera looks at the container: the opening's centre is in the image, in front.
+    const Eigen::Vector3d centre = tof.scene.T_scan_container.translation();
+    const CameraIntrinsics& k = tof.frame.intrinsics;
+    ASSERT_GT(centre.z(), 0.0);
+    const double u = k.fx * centre.x() / centre.z() + k.cx;
+    const double v = k.fy * centre.y() / centre.z() + k.cy;
+    EXPECT_GT(u, 0.0);
+    EXPECT_LT(u, tof.frame.depth.width);
+    EXPECT_GT(v, 0.0);
+    EXPECT_LT(v, tof.frame.depth.height);
+}
+
 }  // namespace
 }  // namespace soilvol::sim
