@@ -103,9 +103,12 @@ struct SensorSpec {
     double elevation_deg = 45.0;          ///< view angle above the opening plane
     double azimuth_deg = 0.0;             ///< counter-clockwise about +z, 0 = looking along +y
     double angular_resolution_deg = 0.5;  ///< ray grid step; <= 0 gives no points
-    double range_noise_sigma_m = 0.04;    ///< Gaussian range noise along each ray
-    double outlier_fraction = 0.0;        ///< share of returns replaced by a random range
-    double max_range_m = 8.0;             ///< returns beyond are dropped
+    /// > 0: a spinning lidar's rings, rows of rays this far apart in elevation (cones about
+    /// the scan frame's -y axis, its spin axis), angular_resolution_deg apart along each ring.
+    double ring_spacing_deg = 0.0;
+    double range_noise_sigma_m = 0.04;  ///< Gaussian range noise along each ray
+    double outlier_fraction = 0.0;      ///< share of returns replaced by a random range
+    double max_range_m = 8.0;           ///< returns beyond are dropped
 };
 
 /// A sensor placed to see most of `kind`'s inside (range noise and resolution at their

@@ -21,9 +21,11 @@ Eigen::Vector3d RayDirection(double azimuth, double elevation) {
             std::cos(elevation) * std::cos(azimuth)};
 }
 
-// Rays whose direction lies within `cone` of the unit `axis`, as grid rows of (azimuth, elevation).
+// Rays whose direction lies within `cone` of the unit `axis`, as grid rows of (azimuth,
+// elevation): rows `row_step` apart in elevation, columns `column_step` apart in azimuth.
 struct RayGrid {
-    double step = 0.0;
+    double row_step = 0.0;
+    double column_step = 0.0;
     double axis_azimuth = 0.0;
     double axis_elevation = 0.0;
     double cone = 0.0;
@@ -31,33 +33,36 @@ struct RayGrid {
     std::pair<int, int> Rows() const {
         const double lo = std::max(axis_elevation - cone, -kMaxElevationRad);
         const double hi = std::min(axis_elevation + cone, kMaxElevationRad);
-        return {static_cast<int>(std::ceil(lo / step)), static_cast<int>(std::floor(hi / step))};
+        return {static_cast<int>(std::ceil(lo / row_step)),
+                static_cast<int>(std::floor(hi / row_step))};
     }
 
     // Columns of row `j`: cos(a - a_c) >= (cos cone - sin e sin e_c) / (cos e cos e_c).
     std::pair<int, int> Columns(int j) const {
-        const double e = j * step;
+        const double e = j * row_step;
         const double bound = (std::cos(cone) - std::sin(e) * std::sin(axis_elevation)) /
                              (std::cos(e) * std::cos(axis_elevation));
         if (bound > 1.0) return {1, 0};
         const double half = bound < -1.0 ? kPi : std::acos(bound);
         const double lo = std::max(axis_azimuth - half, -kPi);
         const double hi = std::min(axis_azimuth + half, kPi - 1e-9);
-        return {static_cast<int>(std::ceil(lo / step)), static_cast<int>(std::floor(hi / step))};
+        return {static_cast<int>(std::ceil(lo / column_step)),
+                static_cast<int>(std::floor(hi / column_step))};
     }
 };
 
 RayGrid CoverBoundingSphere(const Eigen::AlignedBox3d& bounds, const Pose& T_scan_container,
-                            double step) {
+                            double row_step, double column_step) {
     const Eigen::Vector3d centre = T_scan_container * bounds.center();
     const double radius = 0.5 * bounds.diagonal().norm();
     const double distance = centre.norm();
     RayGrid grid;
-    grid.step = step;
+    grid.row_step = row_step;
+    grid.column_step = column_step;
     grid.axis_azimuth = std::atan2(centre.x(), centre.z());
     grid.axis_elevation = std::atan2(-centre.y(), std::hypot(centre.x(), centre.z()));
     const double cone = distance > radius ? std::asin(radius / distance) : kMaxConeRad;
-    grid.cone = std::min(cone + kMarginRad + step, kMaxConeRad);
+    grid.cone = std::min(cone + kMarginRad + std::max(row_step, column_step), kMaxConeRad);
     return grid;
 }
 
@@ -85,8 +90,11 @@ Cloud TofSensor::Scan(const SceneRaycaster& scene, const Pose& T_scan_container,
                       std::mt19937_64* rng) const {
     Cloud points;
     if (!(spec_.angular_resolution_deg > 0.0)) return points;
-    const RayGrid grid = CoverBoundingSphere(scene.Bounds(), T_scan_container,
-                                             spec_.angular_resolution_deg * kDegToRad);
+    const double column_step = spec_.angular_resolution_deg * kDegToRad;
+    const double row_step =
+        spec_.ring_spacing_deg > 0.0 ? spec_.ring_spacing_deg * kDegToRad : column_step;
+    const RayGrid grid =
+        CoverBoundingSphere(scene.Bounds(), T_scan_container, row_step, column_step);
     const Pose T_container_scan = T_scan_container.inverse();
     const Eigen::Vector3d origin = T_container_scan.translation();
     const double sigma = std::max(spec_.range_noise_sigma_m, 0.0);
@@ -99,7 +107,7 @@ Cloud TofSensor::Scan(const SceneRaycaster& scene, const Pose& T_scan_container,
     for (int j = last_row; j >= first_row; --j) {
         const auto [first_col, last_col] = grid.Columns(j);
         for (int k = first_col; k <= last_col; ++k) {
-            const Eigen::Vector3d ray = RayDirection(k * grid.step, j * grid.step);
+            const Eigen::Vector3d ray = RayDirection(k * grid.column_step, j * grid.row_step);
             const std::optional<double> hit =
                 scene.Cast(origin, T_container_scan.linear() * ray, cast_range);
             if (!hit) continue;
@@ -115,6 +123,15 @@ Cloud TofSensor::Scan(const SceneRaycaster& scene, const Pose& T_scan_container,
         }
     }
     return points;
+}
+
+SensorSpec TypicalSpinningLidar(const SensorSpec& viewpoint) {
+    SensorSpec lidar = viewpoint;
+    lidar.ring_spacing_deg = 1.33;
+    lidar.angular_resolution_deg = 0.2;
+    lidar.range_noise_sigma_m = 0.02;
+    lidar.outlier_fraction = 0.0;
+    return lidar;
 }
 
 }  // namespace soilvol::sim

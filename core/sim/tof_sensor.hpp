@@ -15,7 +15,8 @@ namespace soilvol::sim {
 Pose NominalScanPose(const SensorSpec& spec);
 
 /// A time-of-flight sensor: rays on a regular azimuth/elevation grid about the optical axis
-/// (steps of angular_resolution_deg), only those that cover the scene's bounding sphere.
+/// (steps of angular_resolution_deg; rows ring_spacing_deg apart when that is set: a spinning
+/// lidar's rings), only those that cover the scene's bounding sphere.
 class TofSensor {
   public:
     explicit TofSensor(const SensorSpec& spec);
@@ -29,5 +30,10 @@ class TofSensor {
   private:
     SensorSpec spec_;
 };
+
+/// A typical spinning lidar (32 beams over 42 deg: rings 1.33 deg apart, 0.2 deg along each,
+/// 2 cm noise) at `viewpoint`, its spin axis tilted to face the container (the scan frame's
+/// -y): the returns lie on rings with gaps between them that grow with range.
+SensorSpec TypicalSpinningLidar(const SensorSpec& viewpoint);
 
 }  // namespace soilvol::sim

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 #include "core/common/timer.hpp"
 #include "core/sim/scene_raycaster.hpp"
@@ -194,6 +195,32 @@ TEST(SceneTest, SameSpecGivesTheSameScene) {
     const Scene c = SimulateScene(spec);
     EXPECT_GT((c.T_scan_container.translation() - a.T_scan_container.translation()).norm(), 1e-3);
     EXPECT_EQ(c.true_volume_m3, a.true_volume_m3);
+}
+
+TEST(SceneTest, SpinningLidarReturnsLieOnRingsWithGapsBetween) {
+    SceneSpec spec;
+    spec.sensor = TypicalSpinningLidar(ViewpointFor(ContainerKind::kTruckBed));
+    spec.container = ContainerKind::kTruckBed;
+    spec.soil.fill_height_m = 0.3;
+    const Scene scene = SimulateScene(spec);
+    ASSERT_GT(scene.points.size(), 1000u);
+    const double ring = spec.sensor.ring_spacing_deg * M_PI / 180.0;
+    const double step = spec.sensor.angular_resolution_deg * M_PI / 180.0;
+    std::vector<int> rings;
+    for (const Eigen::Vector3f& p : scene.points) {
+        // Noise moves a return along its ray only: its direction is its ray's.
+        const Eigen::Vector3d d = p.cast<double>().normalized();
+        const double elevation = std::atan2(-d.y(), std::hypot(d.x(), d.z()));
+        const double azimuth = std::atan2(d.x(), d.z());
+        ASSERT_NEAR(elevation / ring, std::round(elevation / ring), 1e-4);
+        ASSERT_NEAR(azimuth / step, std::round(azimuth / step), 1e-3);
+        rings.push_back(static_cast<int>(std::lround(elevation / ring)));
+    }
+    std::sort(rings.begin(), rings.end());
+    rings.erase(std::unique(rings.begin(), rings.end()), rings.end());
+    // The truck body spans about 40 deg from 5 m: some 25 rings, each a dense line.
+    EXPECT_GE(rings.size(), 15u);
+    EXPECT_GT(scene.points.size(), 20 * rings.size());
 }
 
 TEST(SceneTest, RangeNoiseHasTheGivenSigma) {
