@@ -19,6 +19,15 @@ constexpr double kStraightSigmas = 3.0;
 constexpr double kEdgeSigmas = 6.0;
 constexpr double kAbruptPerPixel = 4.0;
 
+// Whether a depth edge runs through a pixel of depth z along a direction whose two neighbours
+// have depths a and b: both returns, apart by more than `jump`, z between them; 1 or 0.
+// Bitwise, not short-circuit, so that MarkEdgeCandidates' loop stays branch-free.
+template <typename T>
+int Across(T a, T b, T z, T jump) {
+    return static_cast<int>((a > T(0)) & (b > T(0)) & (std::abs(a - b) > jump) &
+                            ((z - a) * (z - b) <= T(0)));
+}
+
 // The depth image; 0, NaN or a negative depth: no return.
 class Image {
   public:
@@ -71,8 +80,7 @@ bool IsFlying(const Image& image, int u, int v, double z, const FlyingPixelConfi
     for (const auto& d : kDirections) {
         const double a = image.Depth(u - d[0], v - d[1]);
         const double b = image.Depth(u + d[0], v + d[1]);
-        if (a <= 0.0 || b <= 0.0 || std::abs(a - b) <= jump) continue;
-        if (z < std::min(a, b) || z > std::max(a, b)) continue;
+        if (Across(a, b, z, jump) == 0) continue;
         const Side before = SideOf(image, u, v, -d[0], -d[1]);
         const Side after = SideOf(image, u, v, d[0], d[1]);
         if (!before.complete() && !after.complete()) continue;
@@ -91,21 +99,18 @@ bool IsFlying(const Image& image, int u, int v, double z, const FlyingPixelConfi
 }
 
 // The cheap half of IsFlying's test, for the interior pixels 1..width-2 of a row (`up`, `row`
-// and `down` its rows): some direction's two neighbours are both returns, apart by more than
-// jump_ratio of the pixel's depth, with the pixel between them. Branch-free, so that the
-// compiler vectorises it: every pixel passes through here, few go further.
+// and `down` its rows): an edge runs through the pixel along some direction (Across, with a
+// jump of jump_ratio of its depth). Branch-free, so that the compiler vectorises it: every
+// pixel passes through here, few go further.
 void MarkEdgeCandidates(const float* up, const float* row, const float* down, int width,
                         float jump_ratio, std::uint8_t* candidate) {
-    const auto across = [](float a, float b, float z, float jump) {
-        return (a > 0.0f) & (b > 0.0f) & (std::abs(a - b) > jump) & ((z - a) * (z - b) <= 0.0f);
-    };
     for (int u = 1; u < width - 1; ++u) {
         const float z = row[u];
         const float jump = jump_ratio * z;
         candidate[u] = static_cast<std::uint8_t>(
             (z > 0.0f) &
-            (across(row[u - 1], row[u + 1], z, jump) | across(up[u], down[u], z, jump) |
-             across(up[u - 1], down[u + 1], z, jump) | across(down[u - 1], up[u + 1], z, jump)));
+            (Across(row[u - 1], row[u + 1], z, jump) | Across(up[u], down[u], z, jump) |
+             Across(up[u - 1], down[u + 1], z, jump) | Across(down[u - 1], up[u + 1], z, jump)));
     }
 }
 
