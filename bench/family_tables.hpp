@@ -10,6 +10,10 @@ namespace soilvol::bench {
 /// capacity and the share of estimates within 2 reported sigmas.
 std::string FamilyTable(int seeds, std::ostream& kv);
 
+/// The families scanned by one spinning lidar on a bridge and by two, one each side (markdown,
+/// a part of FamilyTable's section); key=value lines to `kv`.
+std::string SensorsTable(int seeds, std::ostream& kv);
+
 /// Large container moves (up to 60 deg / 1 m) between the empty scan and a half-filled one,
 /// estimated without an initial pose and with the true one (a machine's kinematics): how many
 /// answers come back right (within 3% of struck), wrong, or refused.

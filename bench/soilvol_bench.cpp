@@ -128,6 +128,7 @@ int main(int argc, char** argv) {
                       app.add_subcommand("table2", "paper Table 2: grid sizes"),
                       app.add_subcommand("containers", "other containers"),
                       app.add_subcommand("families", "every container family, random shapes"),
+                      app.add_subcommand("sensors", "one lidar on a bridge vs two, every family"),
                       app.add_subcommand("budget", "the error split by stage (truth swapped in)"),
                       app.add_subcommand("pose", "the found pose on the paper bucket"),
                       app.add_subcommand("moves", "large container moves, with and without a pose"),
@@ -188,6 +189,7 @@ int main(int argc, char** argv) {
     if (name == "budget" || name == "all") md << BudgetTable(seeds, std::cout);
     if (name == "pose" || name == "all") md << PoseTable(std::max(seeds, 5), std::cout);
     if (name == "families" || name == "all") md << FamilyTable(seeds, std::cout);
+    if (name == "sensors") md << SensorsTable(seeds, std::cout);
     if (name == "moves" || name == "all") md << MovesTable(std::min(seeds, 2), std::cout);
     if (name == "robustness" || name == "all") md << RobustnessTable(seeds, std::cout);
     if (name == "speed" || name == "all") md << SpeedTable(reps, std::cout);

@@ -25,7 +25,10 @@ namespace {
 
 // The scan `spec` describes, taken by `setup`'s sensor: its ray grid, or its ToF camera's
 // depth image back-projected as the service does.
+sim::MultiSensorScene SimulateRig(const Setup& setup, const sim::SceneSpec& spec);
+
 sim::Scene Simulate(const Setup& setup, const sim::SceneSpec& spec) {
+    if (!setup.more_sensors.empty()) return SimulateRig(setup, spec).scene;
     if (!setup.tof_camera) return sim::SimulateScene(spec);
     sim::TofScene tof = sim::SimulateTofScene(spec, *setup.tof_camera);
     depth::DepthCamera camera;
@@ -37,6 +40,16 @@ sim::Scene Simulate(const Setup& setup, const sim::SceneSpec& spec) {
         depth::BackProject(tof.frame.depth, nullptr, camera, config, "scan.depth");
     if (cloud.ok()) tof.scene.points = std::move(cloud->points);
     return std::move(tof.scene);
+}
+
+sim::MultiSensorScene SimulateRig(const Setup& setup, const sim::SceneSpec& spec) {
+    if (setup.more_sensors.empty()) return {Simulate(setup, spec), {}};
+    // A rig turned with the first sensor (a second empty scan from the far side) turns whole.
+    std::vector<sim::SensorSpec> more = setup.more_sensors;
+    for (sim::SensorSpec& sensor : more) {
+        sensor.azimuth_deg += spec.sensor.azimuth_deg - setup.sensor.azimuth_deg;
+    }
+    return sim::SimulateMultiSensorScene(spec, more);
 }
 
 sim::SceneSpec EmptySpec(const Setup& setup, uint64_t seed) {
@@ -84,13 +97,15 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
     const EmptyScanCase marked = SimulateEmpty(setup, seed);
     const sim::Scene& empty = marked.scene;
     const Corners& corners = marked.corners;
-    std::vector<pipeline::EmptyScan> scans = {{empty.points, std::nullopt}};
+    std::vector<pipeline::EmptyScan> scans = {
+        {empty.points, std::nullopt, SimulateRig(setup, EmptySpec(setup, seed)).more}};
     for (int j = 1; j < setup.empty_scans; ++j) {
         sim::SceneSpec turned = spec;
         turned.sensor.azimuth_deg += 180.0;
         turned.scan_seed = spec.scan_seed + static_cast<uint64_t>(j) * 7;
-        const sim::Scene other = Simulate(setup, turned);
-        scans.push_back({other.points, other.opening_corners_scan});
+        sim::MultiSensorScene other = SimulateRig(setup, turned);
+        scans.push_back({std::move(other.scene.points), other.scene.opening_corners_scan,
+                         std::move(other.more)});
     }
     RegisteredModel out{absl::UnknownError("not run"), empty.struck_capacity_m3, 0.0};
     Timer timer;
@@ -119,6 +134,11 @@ RegisteredModel RegisterEmpty(const Setup& setup, uint64_t seed) {
 }
 
 sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t scan_index) {
+    return FilledRigScan(setup, fill_m, seed, scan_index).scene;
+}
+
+sim::MultiSensorScene FilledRigScan(const Setup& setup, double fill_m, uint64_t seed,
+                                    uint64_t scan_index) {
     sim::SceneSpec spec;
     spec.container = setup.container;
     spec.shape = setup.shape;
@@ -129,7 +149,7 @@ sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t
     spec.soil.perturbation_m = setup.perturbation_m;
     spec.soil_seed = seed;
     spec.scan_seed = seed * 1000 + 1 + scan_index;
-    return Simulate(setup, spec);
+    return SimulateRig(setup, spec);
 }
 
 SizedScene SceneOfAbout(std::size_t points, uint64_t seed) {
@@ -153,12 +173,13 @@ SizedScene SceneOfAbout(std::size_t points, uint64_t seed) {
 
 absl::StatusOr<pipeline::VolumeEstimate> Estimate(const model::ContainerModel& model,
                                                   const Cloud& scan, volume::Method method,
-                                                  double cell_m) {
+                                                  double cell_m,
+                                                  const std::vector<SensorCloud>& more) {
     pipeline::EstimateConfig config;
     config.method = method;
     config.heightmap.cell_m = cell_m;
     config.paper.cell_m = cell_m > 0.0 ? cell_m : 0.10;
-    return pipeline::EstimateVolume(model, scan, config);
+    return pipeline::EstimateVolume(model, scan, more, config);
 }
 
 }  // namespace soilvol::bench

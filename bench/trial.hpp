@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/model/container_model.hpp"
@@ -32,6 +33,9 @@ struct Setup {
     /// A ToF camera instead of `sensor`'s ray grid (`sensor` places it): each scan is its depth
     /// image, back-projected as the service does (core/depth, flying-pixel filter on).
     std::optional<sim::TofCameraSpec> tof_camera;
+    /// Further sensors of a rig that scans together with `sensor` (a loading bridge's second
+    /// lidar): every scan, empty and filled, is taken by all of them (not with a ToF camera).
+    std::vector<sim::SensorSpec> more_sensors;
 };
 
 /// The paper's time-of-flight sensor (4 cm noise, 0.5 deg), placed 2.5-3 m away so that each
@@ -65,6 +69,10 @@ EmptyScanCase SimulateEmpty(const Setup& setup, uint64_t seed);
 /// A filled scan of the same container (new pose, new noise) with its true volume.
 sim::Scene FilledScan(const Setup& setup, double fill_m, uint64_t seed, uint64_t scan_index);
 
+/// The same taken by every sensor of the set-up's rig (`more` empty without one).
+sim::MultiSensorScene FilledRigScan(const Setup& setup, double fill_m, uint64_t seed,
+                                    uint64_t scan_index);
+
 /// A filled paper bucket (30 cm of soil) scanned by the paper's sensor made denser or sparser
 /// until the scan holds about `points` returns (within a few %), and the model registered from
 /// its usual 0.5 deg empty scan: the speed benchmarks' scenes.
@@ -78,7 +86,8 @@ SizedScene SceneOfAbout(std::size_t points, uint64_t seed = 1);
 /// Estimates with `method` and `cell_m` (0 = automatic; the paper method needs a size).
 absl::StatusOr<pipeline::VolumeEstimate> Estimate(const model::ContainerModel& model,
                                                   const Cloud& scan, volume::Method method,
-                                                  double cell_m);
+                                                  double cell_m,
+                                                  const std::vector<SensorCloud>& more = {});
 
 std::string ContainerName(sim::ContainerKind kind);
 

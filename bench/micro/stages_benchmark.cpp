@@ -29,6 +29,7 @@ struct Stages {
     SizedScene sized;
     std::string ply;
     cloud::PreprocessResult pre;
+    std::vector<SensorCloud> sensors;  ///< `pre` as the scan's one sensor
     pipeline::ScanAlignment aligned;
     Cloud in_container;
 };
@@ -44,7 +45,8 @@ const Stages& StagesFor(std::size_t points) {
     const pipeline::EstimateConfig config;
     s.ply = io::EncodePly(s.sized.scene.points);
     s.pre = cloud::Preprocess(s.sized.scene.points, config.preprocess);
-    const auto aligned = pipeline::AlignScan(*s.sized.reg.model, s.pre.points, config);
+    s.sensors = {SensorCloud{s.pre.points, Pose::Identity()}};
+    const auto aligned = pipeline::AlignScan(*s.sized.reg.model, s.pre.points, s.sensors, config);
     if (aligned.ok()) {
         s.aligned = *aligned;
         s.in_container = model::ToContainerFrame(s.pre.points, aligned->alignment.T_scan_container);
@@ -101,7 +103,8 @@ void BM_Align(benchmark::State& state) {
     if (s == nullptr) return;
     const pipeline::EstimateConfig config;
     for (auto _ : state) {
-        benchmark::DoNotOptimize(pipeline::AlignScan(*s->sized.reg.model, s->pre.points, config));
+        benchmark::DoNotOptimize(
+            pipeline::AlignScan(*s->sized.reg.model, s->pre.points, s->sensors, config));
     }
     Report(state, s->pre.points.size());
 }

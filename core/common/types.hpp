@@ -21,6 +21,14 @@ struct WeightedCloud {
 /// A rigid transform; `T_a_b` maps points from frame b into frame a.
 using Pose = Eigen::Isometry3d;
 
+/// One sensor's returns in a scan several sensors took together: the points in the sensor's own
+/// frame (the sensor at the origin) and the sensor's pose in the scan frame, the frame of the
+/// scan's first sensor (x_scan = T_scan_sensor * x_sensor).
+struct SensorCloud {
+    Cloud points;
+    Pose T_scan_sensor = Pose::Identity();
+};
+
 /// A triangle mesh [m]: vertices and the indices of each triangle's corners.
 struct TriangleMesh {
     std::vector<Eigen::Vector3d> vertices;

@@ -316,36 +316,93 @@ absl::Status UpdateCapacities(const ModelConfig& config, ContainerModel& model,
 absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, const Corners& corners,
                                                    const ModelConfig& config,
                                                    const StopToken& stop) {
+    return BuildContainerModel(empty_scan, {}, corners, config, stop);
+}
+
+namespace {
+
+// Each sensor's cloud of one empty scan, preprocessed from where it stood, in the container
+// frame (the container at `T_scan_container` in the scan frame), with that sensor's position
+// there; the first is the scan frame's sensor's, `first` (preprocessed already).
+struct SensorPoints {
+    Cloud points;
+    Eigen::Vector3d sensor;
+};
+
+absl::StatusOr<std::vector<SensorPoints>> EmptyScanInContainer(
+    const Cloud& first, const std::vector<SensorCloud>& more_sensors, const Pose& T_scan_container,
+    const ModelConfig& config, const Polygon2d& opening, const StopToken& stop) {
+    std::vector<SensorPoints> out;
+    out.reserve(1 + more_sensors.size());
+    out.push_back(
+        {ToContainerFrame(first, T_scan_container), SensorInContainer(T_scan_container, opening)});
+    for (const SensorCloud& more : more_sensors) {
+        const cloud::PreprocessResult pre = cloud::Preprocess(more.points, config.preprocess, stop);
+        const Pose T_sensor_container = more.T_scan_sensor.inverse() * T_scan_container;
+        out.push_back({ToContainerFrame(pre.points, T_sensor_container),
+                       SensorInContainer(T_sensor_container, opening)});
+    }
+    SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing of the empty scan"));
+    return out;
+}
+
+absl::Status AddCavities(const std::vector<SensorPoints>& sensors, const ModelConfig& config,
+                         ContainerModel& model, const StopToken& stop) {
+    for (const SensorPoints& sensor : sensors) {
+        SOILVOL_RETURN_IF_ERROR(AddCavity(sensor.points, sensor.sensor, config, model, stop));
+    }
+    return UpdateCapacities(config, model, stop);
+}
+
+}  // namespace
+
+absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan,
+                                                   const std::vector<SensorCloud>& more_sensors,
+                                                   const Corners& corners,
+                                                   const ModelConfig& config,
+                                                   const StopToken& stop) {
     ContainerModel model;
     const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess, stop);
     SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing of the empty scan"));
-    model.scan_points = pre.points.size();
     SOILVOL_ASSIGN_OR_RETURN(model.opening, MakeOpening(corners, pre.points, config.opening));
     model.column_top_m = config.inside_above_m;
-    const Cloud points = ToContainerFrame(pre.points, model.opening.T_scan_container);
+    SOILVOL_ASSIGN_OR_RETURN(
+        const std::vector<SensorPoints> sensors,
+        EmptyScanInContainer(pre.points, more_sensors, model.opening.T_scan_container, config,
+                             model.opening.polygon, stop));
+    for (const SensorPoints& sensor : sensors) model.scan_points += sensor.points.size();
     SOILVOL_RETURN_IF_ERROR(stop.Check("noise of the empty scan"));
-    SOILVOL_RETURN_IF_ERROR(MeasureNoise(points, config, model, stop));
-    SOILVOL_RETURN_IF_ERROR(MakeAlignmentSet(points, config, model, stop));
+    SOILVOL_RETURN_IF_ERROR(MeasureNoise(sensors[0].points, config, model, stop));
+    Cloud all;
+    for (std::size_t i = 1; i < sensors.size(); ++i) {
+        if (all.empty()) all = sensors[0].points;
+        all.insert(all.end(), sensors[i].points.begin(), sensors[i].points.end());
+    }
+    SOILVOL_RETURN_IF_ERROR(
+        MakeAlignmentSet(sensors.size() == 1 ? sensors[0].points : all, config, model, stop));
     if (model.alignment_points.size() < config.min_alignment_points) {
         return absl::FailedPreconditionError(absl::StrCat(
             "only ", model.alignment_points.size(), " alignment points outside the opening (need ",
             config.min_alignment_points, "): the container's outside must be visible to align it"));
     }
-    const Eigen::Vector3d sensor =
-        SensorInContainer(model.opening.T_scan_container, model.opening.polygon);
-    SOILVOL_RETURN_IF_ERROR(AddCavity(points, sensor, config, model, stop));
-    SOILVOL_RETURN_IF_ERROR(UpdateCapacities(config, model, stop));
+    SOILVOL_RETURN_IF_ERROR(AddCavities(sensors, config, model, stop));
     return model;
 }
 
 absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
                           const ModelConfig& config, ContainerModel& model, const StopToken& stop) {
+    return AddEmptyScan(empty_scan, {}, T_scan_container, config, model, stop);
+}
+
+absl::Status AddEmptyScan(const Cloud& empty_scan, const std::vector<SensorCloud>& more_sensors,
+                          const Pose& T_scan_container, const ModelConfig& config,
+                          ContainerModel& model, const StopToken& stop) {
     const cloud::PreprocessResult pre = cloud::Preprocess(empty_scan, config.preprocess, stop);
     SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing of the empty scan"));
-    const Cloud points = ToContainerFrame(pre.points, T_scan_container);
-    SOILVOL_RETURN_IF_ERROR(AddCavity(
-        points, SensorInContainer(T_scan_container, model.opening.polygon), config, model, stop));
-    return UpdateCapacities(config, model, stop);
+    SOILVOL_ASSIGN_OR_RETURN(const std::vector<SensorPoints> sensors,
+                             EmptyScanInContainer(pre.points, more_sensors, T_scan_container,
+                                                  config, model.opening.polygon, stop));
+    return AddCavities(sensors, config, model, stop);
 }
 
 }  // namespace soilvol::model

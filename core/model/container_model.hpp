@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/align/icp.hpp"
@@ -92,6 +93,17 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
                                                    const ModelConfig& config,
                                                    const StopToken& stop = {});
 
+/// The same from an empty scan several sensors took together: `empty_scan` is the first
+/// sensor's cloud (its frame is the scan frame of `corners`), `more_sensors` the others, each in
+/// its own frame with its pose in the scan frame. Each cloud is preprocessed from its own
+/// sensor; the alignment set is drawn from all of them; each adds the inside it saw, weighted
+/// along its own rays.
+absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan,
+                                                   const std::vector<SensorCloud>& more_sensors,
+                                                   const Corners& corners,
+                                                   const ModelConfig& config,
+                                                   const StopToken& stop = {});
+
 /// Adds one more scan of the empty container (scan frame) in which the container stands at
 /// `T_scan_container` (found by aligning the model to it): its returns fill what earlier scans
 /// did not see, and the empty surface and capacities are computed anew. FailedPrecondition when
@@ -100,6 +112,11 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan, cons
 absl::Status AddEmptyScan(const Cloud& empty_scan, const Pose& T_scan_container,
                           const ModelConfig& config, ContainerModel& model,
                           const StopToken& stop = {});
+
+/// The same for an empty scan several sensors took together (as BuildContainerModel takes it).
+absl::Status AddEmptyScan(const Cloud& empty_scan, const std::vector<SensorCloud>& more_sensors,
+                          const Pose& T_scan_container, const ModelConfig& config,
+                          ContainerModel& model, const StopToken& stop = {});
 
 /// Where the rays of a scan come from, in the container frame: the scan frame's origin mapped by
 /// `T_scan_container`, when it lies above the opening plane (by a tenth of the opening's

@@ -69,20 +69,70 @@ absl::StatusOr<align::AlignResult> SearchWider(const model::ContainerModel& mode
     return local;
 }
 
-// The model's outside must not float in space the scan's rays crossed.
+// The model's outside must not float in space the scan's rays crossed: each sensor's rays are
+// tested from where that sensor stood.
 absl::StatusOr<align::SeenThrough> CheckFreeSpace(const model::ContainerModel& model,
-                                                  const Cloud& scan,
+                                                  const std::vector<SensorCloud>& sensors,
                                                   const align::AlignResult& alignment,
                                                   const EstimateConfig& config) {
-    const align::SeenThrough seen = align::SeenThroughShare(
-        model::ToScanFrame(model.alignment_points, alignment.T_scan_container), scan,
-        model.noise_sigma_m, config.seen_through);
+    align::SeenThrough seen;
+    for (const SensorCloud& sensor : sensors) {
+        const Pose T_sensor_container = sensor.T_scan_sensor.inverse() * alignment.T_scan_container;
+        const align::SeenThrough own =
+            align::SeenThroughShare(model::ToScanFrame(model.alignment_points, T_sensor_container),
+                                    sensor.points, model.noise_sigma_m, config.seen_through);
+        seen.tested += own.tested;
+        seen.through += own.through;
+    }
     if (seen.Share() <= config.max_seen_through_share) return seen;
     return absl::FailedPreconditionError(absl::StrFormat(
         "alignment rejected: the scan sees through %.0f%% of the container's outside at the "
         "found pose (%zu of %zu points with returns in their direction; at most %.0f%%): the "
         "container is not where the alignment put it; give its pose (initial pose)",
         100.0 * seen.Share(), seen.through, seen.tested, 100.0 * config.max_seen_through_share));
+}
+
+// The returns of one sensor (container frame) that can be contents, weighted along their rays
+// from `sensor` (container frame): the container's own rim and outside are not contents (a
+// return under the opening whose ray came through a wall is the wall's outside).
+absl::StatusOr<WeightedCloud> ContentsSeenFrom(const model::ContainerModel& model,
+                                               const Cloud& aligned, const Eigen::Vector3d& sensor,
+                                               const EstimateConfig& config,
+                                               const StopToken& stop) {
+    const Polygon2d& opening = model.opening.polygon;
+    WeightedCloud selected =
+        volume::SelectColumn(aligned, {}, sensor, opening, -model.depth_m, config.heightmap);
+    selected.points = model::ThroughOpening(std::move(selected.points), sensor, opening);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
+    WeightedCloud column = model::RemoveStructure(model, selected);
+    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
+    column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
+                                       config.heightmap.ray_weights, stop);
+    column.sensor = sensor;
+    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
+    return column;
+}
+
+// Sec. 3.1 for one sensor's cloud, from where that sensor stood.
+void PreprocessInto(const Cloud& points, const Pose& T_scan_sensor, const EstimateConfig& config,
+                    const StopToken& stop, VolumeEstimate& estimate,
+                    std::vector<SensorCloud>& sensors) {
+    cloud::PreprocessResult pre = cloud::Preprocess(points, config.preprocess, stop);
+    estimate.input_points += points.size();
+    estimate.preprocessed_points += pre.points.size();
+    estimate.timings.range_ms += pre.range_ms;
+    estimate.timings.outliers_ms += pre.outliers_ms + pre.voxel_ms;
+    sensors.push_back({std::move(pre.points), T_scan_sensor});
+}
+
+// Every sensor's returns in the scan frame.
+Cloud InScanFrame(const std::vector<SensorCloud>& sensors) {
+    Cloud all;
+    for (const SensorCloud& sensor : sensors) {
+        const Cloud placed = model::ToScanFrame(sensor.points, sensor.T_scan_sensor);
+        all.insert(all.end(), placed.begin(), placed.end());
+    }
+    return all;
 }
 
 // 1-sigma of the volume from the alignment's full pose covariance: the covariance, over a left
@@ -191,6 +241,7 @@ absl::Status SetKinematicAccuracy(double position_sigma_m, double orientation_si
 }
 
 absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, const Cloud& scan,
+                                        const std::vector<SensorCloud>& sensors,
                                         const EstimateConfig& config, const StopToken& stop) {
     // Sec. 3.3: align the model's outside to the scan.
     ScanAlignment out;
@@ -212,7 +263,8 @@ absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, cons
         out.from_kinematic = DifferenceOf(initial, out.alignment.T_scan_container);
         SOILVOL_RETURN_IF_ERROR(CheckKinematic(*out.from_kinematic, config));
     }
-    SOILVOL_ASSIGN_OR_RETURN(out.seen_through, CheckFreeSpace(model, scan, out.alignment, config));
+    SOILVOL_ASSIGN_OR_RETURN(out.seen_through,
+                             CheckFreeSpace(model, sensors, out.alignment, config));
     return out;
 }
 
@@ -254,41 +306,67 @@ absl::StatusOr<volume::VolumeResult> IntegrateVolume(
     const model::ContainerModel& model, const Cloud& aligned, const Pose& T_scan_container,
     const EstimateConfig& config, const volume::EmptySide& empty, const StopToken& stop) {
     const Polygon2d& opening = model.opening.polygon;
-    // Returns of the container's own rim and outside are not contents (a return under the
-    // opening whose ray came through a wall is the wall's outside); every other return weighs
-    // by what it tells of the height under it, seen along its ray.
-    const Eigen::Vector3d sensor = model::SensorInContainer(T_scan_container, opening);
-    WeightedCloud selected =
-        volume::SelectColumn(aligned, {}, sensor, opening, -model.depth_m, config.heightmap);
-    selected.points = model::ThroughOpening(std::move(selected.points), sensor, opening);
-    SOILVOL_RETURN_IF_ERROR(stop.Check("structure removal"));
-    WeightedCloud column = model::RemoveStructure(model, selected);
-    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
-    column.weights = cloud::RayWeights(column.points, sensor, model.noise_sigma_m,
-                                       config.heightmap.ray_weights, stop);
-    column.sensor = sensor;
-    SOILVOL_RETURN_IF_ERROR(stop.Check("ray weights"));
-    return volume::HeightmapVolume(empty, column, opening, config.heightmap, stop);
+    std::vector<WeightedCloud> columns(1);
+    SOILVOL_ASSIGN_OR_RETURN(
+        columns[0],
+        ContentsSeenFrom(model, aligned, model::SensorInContainer(T_scan_container, opening),
+                         config, stop));
+    return volume::HeightmapVolume(empty, columns, opening, config.heightmap, stop);
+}
+
+absl::StatusOr<volume::VolumeResult> IntegrateVolume(const model::ContainerModel& model,
+                                                     const std::vector<SensorCloud>& sensors,
+                                                     const Pose& T_scan_container,
+                                                     const EstimateConfig& config,
+                                                     const StopToken& stop) {
+    const Polygon2d& opening = model.opening.polygon;
+    if (config.method == volume::Method::kPaper) {
+        return IntegrateVolume(model,
+                               model::ToContainerFrame(InScanFrame(sensors), T_scan_container),
+                               T_scan_container, config, stop);
+    }
+    std::vector<WeightedCloud> columns;
+    for (const SensorCloud& sensor : sensors) {
+        const Pose T_sensor_container = sensor.T_scan_sensor.inverse() * T_scan_container;
+        SOILVOL_ASSIGN_OR_RETURN(
+            WeightedCloud column,
+            ContentsSeenFrom(model, model::ToContainerFrame(sensor.points, T_sensor_container),
+                             model::SensorInContainer(T_sensor_container, opening), config, stop));
+        columns.push_back(std::move(column));
+    }
+    return volume::HeightmapVolume(EmptySideOf(model, config, stop), columns, opening,
+                                   config.heightmap, stop);
 }
 
 absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
                                               const EstimateConfig& config, const StopToken& stop) {
-    if (scan.empty()) return absl::InvalidArgumentError("scan has no points");
+    return EstimateVolume(model, scan, {}, config, stop);
+}
+
+absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
+                                              const std::vector<SensorCloud>& more_sensors,
+                                              const EstimateConfig& config, const StopToken& stop) {
     VolumeEstimate estimate;
     Timer total;
     Timer timer;
-    // Sec. 3.1: background and outlier removal.
-    const cloud::PreprocessResult pre = cloud::Preprocess(scan, config.preprocess, stop);
+    // Sec. 3.1: background and outlier removal, each sensor's cloud from where it stood.
+    std::vector<SensorCloud> sensors;
+    sensors.reserve(1 + more_sensors.size());
+    PreprocessInto(scan, Pose::Identity(), config, stop, estimate, sensors);
+    for (const SensorCloud& more : more_sensors) {
+        PreprocessInto(more.points, more.T_scan_sensor, config, stop, estimate, sensors);
+    }
     SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing"));
-    estimate.input_points = scan.size();
-    estimate.preprocessed_points = pre.points.size();
-    estimate.timings.range_ms = pre.range_ms;
-    estimate.timings.outliers_ms = pre.outliers_ms + pre.voxel_ms;
-    if (pre.points.empty()) {
+    if (estimate.input_points == 0) return absl::InvalidArgumentError("scan has no points");
+    if (estimate.preprocessed_points == 0) {
         return absl::InvalidArgumentError("no scan point is left after range and outlier removal");
     }
     timer.Lap();
-    SOILVOL_ASSIGN_OR_RETURN(ScanAlignment aligned, AlignScan(model, pre.points, config, stop));
+    // Sec. 3.3: one sensor's cloud is the scan; several are placed in the first one's frame.
+    const Cloud placed = sensors.size() == 1 ? Cloud{} : InScanFrame(sensors);
+    const Cloud& in_scan_frame = sensors.size() == 1 ? sensors[0].points : placed;
+    SOILVOL_ASSIGN_OR_RETURN(ScanAlignment aligned,
+                             AlignScan(model, in_scan_frame, sensors, config, stop));
     estimate.alignment = std::move(aligned.alignment);
     estimate.seen_through = aligned.seen_through;
     estimate.from_kinematic = aligned.from_kinematic;
@@ -297,9 +375,7 @@ absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model
     SOILVOL_RETURN_IF_ERROR(stop.Check("volume integration"));
     SOILVOL_ASSIGN_OR_RETURN(
         estimate.volume,
-        IntegrateVolume(model,
-                        model::ToContainerFrame(pre.points, estimate.alignment.T_scan_container),
-                        estimate.alignment.T_scan_container, config, stop));
+        IntegrateVolume(model, sensors, estimate.alignment.T_scan_container, config, stop));
     estimate.timings.volume_ms = timer.Lap();
     SOILVOL_RETURN_IF_ERROR(CheckContents(estimate.volume, config));
     estimate.volume_m3 = estimate.volume.volume_m3;

@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <optional>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/align/global_align.hpp"
@@ -107,10 +108,13 @@ struct ScanAlignment {
     std::optional<PoseDifference> from_kinematic;
 };
 
-/// Sec. 3.3: aligns the model's outside to the preprocessed scan (from the configured or the
-/// registered pose, checked against a global search when configured) and refuses a bad
-/// alignment (FailedPrecondition with the figures).
+/// Sec. 3.3: aligns the model's outside to the preprocessed scan (`scan`: every sensor's returns
+/// in the scan frame; `sensors`: the same returns per sensor, in its own frame) from the
+/// configured or the registered pose, checked against a global search when configured, and
+/// refuses a bad alignment (FailedPrecondition with the figures); the free-space test follows
+/// each sensor's own rays.
 absl::StatusOr<ScanAlignment> AlignScan(const model::ContainerModel& model, const Cloud& scan,
+                                        const std::vector<SensorCloud>& sensors,
                                         const EstimateConfig& config, const StopToken& stop = {});
 
 /// Sec. 3.4: the contents of the preprocessed scan in the container frame (`aligned`, taken
@@ -131,11 +135,30 @@ absl::StatusOr<volume::VolumeResult> IntegrateVolume(
     const model::ContainerModel& model, const Cloud& aligned, const Pose& T_scan_container,
     const EstimateConfig& config, const volume::EmptySide& empty, const StopToken& stop = {});
 
+/// IntegrateVolume over a scan of several sensors: `sensors` (preprocessed, each in its own
+/// frame, placed in the scan frame), the container at `T_scan_container`. Each sensor's returns
+/// keep their own rays (weights, structure, free space); the soil surface is fitted to all.
+absl::StatusOr<volume::VolumeResult> IntegrateVolume(const model::ContainerModel& model,
+                                                     const std::vector<SensorCloud>& sensors,
+                                                     const Pose& T_scan_container,
+                                                     const EstimateConfig& config,
+                                                     const StopToken& stop = {});
+
 /// Sec. 3.1-3.4 in order: preprocess the scan, align the model's outside to it, refuse a bad
 /// alignment (FailedPrecondition with the figures), integrate the soil with the chosen method.
 /// InvalidArgument for an empty scan; DeadlineExceeded or Cancelled, naming the stage, once
 /// `stop` asks for it.
 absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
+                                              const EstimateConfig& config,
+                                              const StopToken& stop = {});
+
+/// The same over a scan several sensors took together: `scan` is the first sensor's cloud (its
+/// frame is the scan frame, of every pose in the config and the answer), `more_sensors` the
+/// others, each in its own frame with its pose in the scan frame. Each cloud is preprocessed
+/// from its own sensor; the alignment sees all of them; every ray-based step follows each
+/// return's own sensor; a cell counts as seen when any sensor saw it.
+absl::StatusOr<VolumeEstimate> EstimateVolume(const model::ContainerModel& model, const Cloud& scan,
+                                              const std::vector<SensorCloud>& more_sensors,
                                               const EstimateConfig& config,
                                               const StopToken& stop = {});
 

@@ -26,6 +26,18 @@ absl::StatusOr<Pose> InitialPose(const EmptyScan& scan, const Cloud& preprocesse
     return opening->T_scan_container;
 }
 
+// Every sensor's returns of `scan`, each preprocessed from where it stood, in the scan frame.
+Cloud InScanFrame(const EmptyScan& scan, const cloud::PreprocessConfig& config,
+                  const StopToken& stop) {
+    Cloud all = cloud::Preprocess(scan.points, config, stop).points;
+    for (const SensorCloud& more : scan.more_sensors) {
+        const Cloud placed = model::ToScanFrame(cloud::Preprocess(more.points, config, stop).points,
+                                                more.T_scan_sensor);
+        all.insert(all.end(), placed.begin(), placed.end());
+    }
+    return all;
+}
+
 }  // namespace
 
 absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
@@ -39,24 +51,25 @@ absl::StatusOr<Registration> RegisterContainer(const Corners& corners,
     }
     Registration out;
     SOILVOL_ASSIGN_OR_RETURN(
-        out.model, model::BuildContainerModel(scans[0].points, corners, config.model, stop));
+        out.model, model::BuildContainerModel(scans[0].points, scans[0].more_sensors, corners,
+                                              config.model, stop));
     for (std::size_t i = 1; i < scans.size(); ++i) {
         const std::string scan = absl::StrCat(" (empty scan ", i + 1, " of ", scans.size(), ")");
         SOILVOL_RETURN_IF_ERROR(stop.Check(absl::StrCat("preprocessing", scan)));
-        const cloud::PreprocessResult pre =
-            cloud::Preprocess(scans[i].points, config.model.preprocess, stop);
+        const Cloud points = InScanFrame(scans[i], config.model.preprocess, stop);
         SOILVOL_RETURN_IF_ERROR(stop.Check(absl::StrCat("preprocessing", scan)));
         SOILVOL_ASSIGN_OR_RETURN(const Pose initial,
-                                 InitialPose(scans[i], pre.points, out.model, config.model, i));
+                                 InitialPose(scans[i], points, out.model, config.model, i));
         align::AlignResult alignment =
-            model::AlignModel(out.model, pre.points, initial, config.align, stop);
+            model::AlignModel(out.model, points, initial, config.align, stop);
         SOILVOL_RETURN_IF_ERROR(stop.Check(absl::StrCat("alignment", scan)));
         if (const absl::Status gate = align::CheckAlignment(alignment, config.gate); !gate.ok()) {
             return absl::FailedPreconditionError(
                 absl::StrCat("empty scan ", i + 1, ": ", gate.message()));
         }
-        SOILVOL_RETURN_IF_ERROR(model::AddEmptyScan(scans[i].points, alignment.T_scan_container,
-                                                    config.model, out.model, stop));
+        SOILVOL_RETURN_IF_ERROR(model::AddEmptyScan(scans[i].points, scans[i].more_sensors,
+                                                    alignment.T_scan_container, config.model,
+                                                    out.model, stop));
         out.alignments.push_back(std::move(alignment));
     }
     out.warnings = CapacityWarnings(out.model, config.max_capacity_sigma_share);

@@ -11,12 +11,15 @@
 
 namespace soilvol::pipeline {
 
-/// One scan of the empty container (scan frame; one sensor, the container may have moved).
+/// One scan of the empty container (the container may have moved between scans).
 struct EmptyScan {
-    Cloud points;
+    Cloud points;  ///< the first sensor's returns, in its frame: the scan frame
     /// The opening corners in this scan, when marked; otherwise the alignment starts from the
     /// pose the container had in the first scan.
     std::optional<Corners> corners;
+    /// The other sensors that took this scan together with the first, each in its own frame
+    /// with its pose in the scan frame (a loading bridge's two lidars).
+    std::vector<SensorCloud> more_sensors;
 };
 
 struct RegistrationConfig {

@@ -184,4 +184,14 @@ SensorSpec ViewpointFor(const ContainerShape& shape, uint64_t seed) {
     return sensor;
 }
 
+std::vector<SensorSpec> BridgeViewpoints(const ContainerShape& shape, uint64_t seed) {
+    Draw draw(seed * 53 + 11);
+    SensorSpec near = ViewpointFor(shape, seed);
+    near.elevation_deg = draw(60.0, 75.0);
+    near.azimuth_deg = draw(-20.0, 20.0);
+    SensorSpec far = near;
+    far.azimuth_deg += 180.0;
+    return {near, far};
+}
+
 }  // namespace soilvol::sim

@@ -62,6 +62,28 @@ Scene SimulateScene(const SceneSpec& spec) {
     return scene;
 }
 
+MultiSensorScene SimulateMultiSensorScene(const SceneSpec& spec,
+                                          const std::vector<SensorSpec>& more) {
+    const ContainerGeometry container =
+        spec.shape ? MakeContainer(*spec.shape) : MakeContainer(spec.container);
+    const SoilSurface soil(container, spec.soil, spec.soil_seed);
+    const SceneRaycaster raycaster(container, soil);
+    std::mt19937_64 rng(spec.scan_seed);
+    MultiSensorScene out;
+    out.scene = PlaceScene(spec, container, soil, &rng);
+    out.scene.points = TofSensor(spec.sensor).Scan(raycaster, out.scene.T_scan_container, &rng);
+    // The container's pose without the first sensor's viewpoint: where the rig finds it.
+    const Pose T_nominal_container =
+        NominalScanPose(spec.sensor).inverse() * out.scene.T_scan_container;
+    for (std::size_t i = 0; i < more.size(); ++i) {
+        const Pose T_sensor_container = NominalScanPose(more[i]) * T_nominal_container;
+        std::mt19937_64 own(spec.scan_seed * 7919 + i + 1);
+        out.more.push_back({TofSensor(more[i]).Scan(raycaster, T_sensor_container, &own),
+                            out.scene.T_scan_container * T_sensor_container.inverse()});
+    }
+    return out;
+}
+
 double TrueSoilVolume(const ContainerGeometry& container, const SoilSpec& soil,
                       uint64_t soil_seed) {
     return SoilSurface(container, soil, soil_seed).Volume(kTruthCellM);

@@ -163,6 +163,23 @@ Scene PlaceScene(const SceneSpec& spec, const ContainerGeometry& container, cons
 /// Simulates one scan; deterministic for a given spec.
 Scene SimulateScene(const SceneSpec& spec);
 
+/// A scan several sensors take together (a loading bridge's lidars): the container placed once
+/// as SimulateScene places it before `spec.sensor` (the first sensor, whose frame is the scan
+/// frame), and seen as well from each of `more`, placed about the container as that spec says
+/// (its viewpoint, then the same move and jitter): a rig whose sensors keep their poses
+/// relative to each other from scan to scan. Deterministic for given specs.
+struct MultiSensorScene {
+    Scene scene;                    ///< the first sensor's returns and the truth
+    std::vector<SensorCloud> more;  ///< each further sensor's returns, in its own frame
+};
+MultiSensorScene SimulateMultiSensorScene(const SceneSpec& spec,
+                                          const std::vector<SensorSpec>& more);
+
+/// Two sensors on a bridge over `shape`: the seed's viewpoint (ViewpointFor) raised to 60-75 deg
+/// elevation and turned to look across the container (azimuth within 20 deg of 0), and its
+/// mirror on the far side (azimuth + 180 deg); same range, noise and resolution.
+std::vector<SensorSpec> BridgeViewpoints(const ContainerShape& shape, uint64_t seed);
+
 /// Exact soil volume [m^3] inside the opening for `soil` in `container` (fine integration).
 double TrueSoilVolume(const ContainerGeometry& container, const SoilSpec& soil, uint64_t soil_seed);
 

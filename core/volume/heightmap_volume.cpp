@@ -43,6 +43,29 @@ std::size_t CountInside(const Cloud& points, const Polygon2d& opening) {
     return n;
 }
 
+// Several clouds' points and weights as one (a cloud without weights weighs 1 a point).
+WeightedCloud Merged(const std::vector<WeightedCloud>& clouds) {
+    WeightedCloud all;
+    bool weighted = false;
+    std::size_t n = 0;
+    for (const WeightedCloud& c : clouds) {
+        weighted = weighted || !c.weights.empty();
+        n += c.points.size();
+    }
+    all.points.reserve(n);
+    if (weighted) all.weights.reserve(n);
+    for (const WeightedCloud& c : clouds) {
+        all.points.insert(all.points.end(), c.points.begin(), c.points.end());
+        if (!weighted) continue;
+        if (c.weights.empty()) {
+            all.weights.insert(all.weights.end(), c.points.size(), 1.0F);
+        } else {
+            all.weights.insert(all.weights.end(), c.weights.begin(), c.weights.end());
+        }
+    }
+    return all;
+}
+
 // Chessboard distance, in cells, from each cell to a nearest measured one, and that cell (two
 // passes; -1 where no cell is measured).
 struct NearestMeasured {
@@ -209,11 +232,7 @@ absl::StatusOr<EmptySurface> EstimateEmptySurface(const Grid& grid,
                                                   const std::vector<WeightedCloud>& empty,
                                                   const HeightmapConfig& config,
                                                   const StopToken& stop) {
-    WeightedCloud all;
-    for (const WeightedCloud& scan : empty) {
-        all.points.insert(all.points.end(), scan.points.begin(), scan.points.end());
-        all.weights.insert(all.weights.end(), scan.weights.begin(), scan.weights.end());
-    }
+    const WeightedCloud all = Merged(empty);
     EmptySurface out;
     SOILVOL_ASSIGN_OR_RETURN(out.map,
                              EstimateSurface(grid, all.points, all.weights, config.surface, stop));
@@ -237,7 +256,8 @@ double EmptyMinZ(const std::vector<WeightedCloud>& empty_inside) {
 }
 
 absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
-                                             const WeightedCloud& scan, const Polygon2d& opening,
+                                             const std::vector<WeightedCloud>& scan,
+                                             const Polygon2d& opening,
                                              const HeightmapConfig& config, const StopToken& stop) {
     const EmptySide empty{
         EmptyMinZ(empty_inside),
@@ -249,11 +269,19 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& e
     return HeightmapVolume(empty, scan, opening, config, stop);
 }
 
-absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const WeightedCloud& scan,
+absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side,
+                                             const std::vector<WeightedCloud>& scan,
                                              const Polygon2d& opening,
                                              const HeightmapConfig& config, const StopToken& stop) {
-    const WeightedCloud column =
-        SelectColumn(scan.points, scan.weights, scan.sensor, opening, empty_side.min_z, config);
+    std::vector<WeightedCloud> columns;
+    columns.reserve(scan.size());
+    for (const WeightedCloud& s : scan) {
+        columns.push_back(
+            SelectColumn(s.points, s.weights, s.sensor, opening, empty_side.min_z, config));
+    }
+    // One sensor's column is read in place; several are fitted as one.
+    const WeightedCloud merged = columns.size() == 1 ? WeightedCloud{} : Merged(columns);
+    const WeightedCloud& column = columns.size() == 1 ? columns.front() : merged;
     SOILVOL_RETURN_IF_ERROR(stop.Check("grid"));
     const double cell_m =
         config.cell_m > 0.0
@@ -277,7 +305,7 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side, const 
                                                               config.surface, stop));
     SOILVOL_RETURN_IF_ERROR(stop.Check("soil surface bounds"));
     const std::vector<double> unseen_soil_sigma =
-        BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, {column}), empty, opening,
+        BoundUnobservedSoil(grid, FreeSpaceCeiling(grid, columns), empty, opening,
                             config.max_heap_slope, column.points.size(), soil);
     const auto num_cells = static_cast<std::size_t>(grid.NumCells());
     result.soil_height_m.assign(num_cells, kNaN);

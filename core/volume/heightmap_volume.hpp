@@ -72,9 +72,13 @@ struct EmptySide {
 double EmptyMinZ(const std::vector<WeightedCloud>& empty_inside);
 
 /// Soil volume between the empty surface and the scan's surface, both in the container frame
-/// with ray weights. FailedPrecondition when either surface has no measurable cell;
-/// DeadlineExceeded or Cancelled once `stop` asks for it (`empty` takes care of its own).
-absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty, const WeightedCloud& scan,
+/// with ray weights. `scan` holds one cloud per sensor, each with its sensor: the soil surface
+/// is fitted to all their returns, a cell counts as seen when any sensor saw it, and a hidden
+/// cell is bounded by the lowest ray of any sensor above it. FailedPrecondition when either
+/// surface has no measurable cell; DeadlineExceeded or Cancelled once `stop` asks for it
+/// (`empty` takes care of its own).
+absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty,
+                                             const std::vector<WeightedCloud>& scan,
                                              const Polygon2d& opening,
                                              const HeightmapConfig& config,
                                              const StopToken& stop = {});
@@ -82,7 +86,8 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty, const Weigh
 /// The same with the empty surface computed from the empty scans' inside points (container
 /// frame, with ray weights); `empty_inside` must outlive the call only.
 absl::StatusOr<VolumeResult> HeightmapVolume(const std::vector<WeightedCloud>& empty_inside,
-                                             const WeightedCloud& scan, const Polygon2d& opening,
+                                             const std::vector<WeightedCloud>& scan,
+                                             const Polygon2d& opening,
                                              const HeightmapConfig& config,
                                              const StopToken& stop = {});
 

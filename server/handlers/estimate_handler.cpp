@@ -108,7 +108,8 @@ absl::StatusOr<pipeline::VolumeEstimate> SoilVolumeHandlers::RunEstimate(
     v1::Timings* timings, const StopToken& stop) const {
     if (scan.calibration == nullptr) {
         timings->set_decode_ms(scan.decode_ms);
-        return pipeline::EstimateVolume(container.model, scan.cloud, config, stop);
+        return pipeline::EstimateVolume(container.model, scan.cloud, scan.more_sensors, config,
+                                        stop);
     }
     pipeline::StereoEstimateConfig stereo_config;
     stereo_config.estimate = config;

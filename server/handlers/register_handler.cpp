@@ -156,14 +156,14 @@ void SoilVolumeHandlers::AddWarnings(v1::Container* container) const {
 }
 
 absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmptyScans(
-    const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
+    const v1::RegisterContainerRequest& request, const Scan& first, std::size_t max_scans,
     CallRecord& record) const {
     if (static_cast<std::size_t>(request.additional_scans_size()) + 1 > max_scans) {
         return absl::InvalidArgumentError(absl::StrCat("additional_scans: at most ", max_scans - 1,
                                                        " (got ", request.additional_scans_size(),
                                                        ")"));
     }
-    std::vector<pipeline::EmptyScan> scans = {{first, std::nullopt}};
+    std::vector<pipeline::EmptyScan> scans = {{first.cloud, std::nullopt, first.more_sensors}};
     for (int i = 0; i < request.additional_scans_size(); ++i) {
         const v1::EmptyScan& extra = request.additional_scans(i);
         const std::string field = absl::StrCat("additional_scans[", i, "]");
@@ -171,7 +171,7 @@ absl::StatusOr<std::vector<pipeline::EmptyScan>> SoilVolumeHandlers::DecodeEmpty
         if (decoded.calibration != nullptr) {
             return absl::InvalidArgumentError(absl::StrCat(field, ".scan: must be a point cloud"));
         }
-        pipeline::EmptyScan scan{decoded.cloud, std::nullopt};
+        pipeline::EmptyScan scan{decoded.cloud, std::nullopt, decoded.more_sensors};
         if (extra.has_opening()) {
             auto marks = ToOpeningMarks(extra.opening(), false);
             if (!marks.ok()) {
@@ -208,7 +208,7 @@ absl::StatusOr<model::ContainerModel> SoilVolumeHandlers::BuildModel(
     pipeline::RegistrationConfig registration;
     registration.model = config;
     SOILVOL_ASSIGN_OR_RETURN(std::vector<pipeline::EmptyScan> scans,
-                             DecodeEmptyScans(request, scan.cloud, registration.max_scans, record));
+                             DecodeEmptyScans(request, scan, registration.max_scans, record));
     absl::StatusOr<pipeline::Registration> registered =
         pipeline::RegisterContainer(std::get<Corners>(marks), scans, registration, record.stop);
     if (!registered.ok()) return registered.status();
@@ -234,8 +234,8 @@ absl::StatusOr<model::ContainerModel> SoilVolumeHandlers::BuildMeshModel(
         SOILVOL_ASSIGN_OR_RETURN(const pipeline::OpeningMarks marks,
                                  ToOpeningMarks(request.opening(), false));
         corners = std::get<Corners>(marks);
-        SOILVOL_ASSIGN_OR_RETURN(
-            scans, DecodeEmptyScans(request, scan.cloud, registration.max_scans, record));
+        SOILVOL_ASSIGN_OR_RETURN(scans,
+                                 DecodeEmptyScans(request, scan, registration.max_scans, record));
     }
     absl::StatusOr<pipeline::Registration> registered =
         pipeline::RegisterWithMesh(mesh.input, corners, scans, mesh.T_scan_mesh, mesh.range_noise_m,

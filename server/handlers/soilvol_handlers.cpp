@@ -12,6 +12,7 @@
 #include "proto/convert/proto_convert.hpp"
 #include "server/base/status_map.hpp"
 #include "server/handlers/resource_rules.hpp"
+#include "server/handlers/sensor_part.hpp"
 #include "server/handlers/stored_record.hpp"
 #include "server/store/entry_id.hpp"
 
@@ -232,36 +233,26 @@ absl::StatusOr<SoilVolumeHandlers::Scan> SoilVolumeHandlers::DecodeScan(
     // Cloud files are parsed here; stereo pairs are decoded by the reconstructor.
     Scan out;
     switch (scan.source_case()) {
-        case v1::Scan::kCloud: {
-            Timer timer;
-            absl::StatusOr<io::DecodedCloud> cloud = io::DecodeCloud(scan.cloud().data());
-            if (!cloud.ok()) return Annotate(cloud.status(), "scan.cloud.data");
-            Pose sensor_pose = cloud->sensor_pose;  // the PCD's VIEWPOINT, if any
-            if (scan.cloud().has_sensor_pose()) {
-                SOILVOL_ASSIGN_OR_RETURN(
-                    sensor_pose, ToPose(scan.cloud().sensor_pose(), "scan.cloud.sensor_pose"));
-            }
-            out.cloud = cloud::InSensorFrame(std::move(cloud->points), sensor_pose);
-            out.decode_ms = timer.Lap();
-            out.dropped_nonfinite = cloud->dropped_nonfinite;
-            return out;
-        }
+        case v1::Scan::kCloud:
         case v1::Scan::kDepth: {
-            Timer timer;
-            SOILVOL_ASSIGN_OR_RETURN(const DepthScanOptions options,
-                                     ToDepthScanOptions(scan.depth(), "scan.depth"));
-            absl::StatusOr<depth::DepthCloud> cloud =
-                depth::DecodeDepthScan(scan.depth().depth(), scan.depth().confidence(),
-                                       options.camera, options.config, "scan.depth");
-            if (!cloud.ok()) return cloud.status();
-            out.decode_ms = timer.Lap();
-            out.cloud = std::move(cloud->points);
-            out.depth_counts = cloud->counts;
-            out.depth_points = out.cloud.size();
+            SOILVOL_ASSIGN_OR_RETURN(
+                SensorPart first, scan.has_cloud() ? DecodeCloudPart(scan.cloud(), "scan.cloud")
+                                                   : DecodeDepthPart(scan.depth(), "scan.depth"));
+            SOILVOL_ASSIGN_OR_RETURN(out.more_sensors, DecodeAdditionalSensors(scan, first));
+            out.cloud = std::move(first.points);
+            out.decode_ms = first.decode_ms;
+            out.dropped_nonfinite = first.dropped_nonfinite;
+            out.depth_counts = first.depth_counts;
+            out.depth_points = first.depth_points;
             return out;
         }
         case v1::Scan::kStereo: {
             const v1::StereoScan& stereo = scan.stereo();
+            if (scan.additional_sensors_size() > 0) {
+                return absl::InvalidArgumentError(
+                    "scan.additional_sensors: a stereo pair is one sensor; give the other "
+                    "sensors' clouds or depth images with a cloud or depth scan");
+            }
             if (stereo.left().empty())
                 return absl::InvalidArgumentError("scan.stereo.left: is empty");
             if (stereo.right().empty()) {

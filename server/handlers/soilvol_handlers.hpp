@@ -109,6 +109,7 @@ class SoilVolumeHandlers {
         std::shared_ptr<const CalibrationEntry> calibration;  ///< set for stereo scans
         std::optional<depth::DepthScanCounts> depth_counts;   ///< set for depth scans
         std::size_t depth_points = 0;
+        std::vector<SensorCloud> more_sensors;  ///< the scan's other sensors (cloud or depth)
         std::string_view left, right;
     };
 
@@ -142,7 +143,7 @@ class SoilVolumeHandlers {
     void AddWarnings(v1::Container* container) const;
     /// `first` and the request's additional_scans, decoded (at most max_scans in all).
     absl::StatusOr<std::vector<pipeline::EmptyScan>> DecodeEmptyScans(
-        const v1::RegisterContainerRequest& request, const Cloud& first, std::size_t max_scans,
+        const v1::RegisterContainerRequest& request, const Scan& first, std::size_t max_scans,
         CallRecord& record) const;
     /// What a create asks of its entry's id (AIP-133, AIP-155 request_id, AIP-154 etag).
     struct Create {

@@ -29,12 +29,12 @@ TEST(RegistrationTest, ASecondViewFillsWhatTheFirstHid) {
     const sim::Scene first = sim::SimulateScene(View(0.0, 1));
     const sim::Scene turned = sim::SimulateScene(View(180.0, 2));
     const double truth = first.struck_capacity_m3;
-    const auto one = RegisterContainer(first.opening_corners_scan, {{first.points, std::nullopt}},
-                                       RegistrationConfig{});
+    const auto one = RegisterContainer(first.opening_corners_scan,
+                                       {{first.points, std::nullopt, {}}}, RegistrationConfig{});
     ASSERT_TRUE(one.ok()) << one.status();
     const auto two = RegisterContainer(
         first.opening_corners_scan,
-        {{first.points, std::nullopt}, {turned.points, turned.opening_corners_scan}},
+        {{first.points, std::nullopt, {}}, {turned.points, turned.opening_corners_scan, {}}},
         RegistrationConfig{});
     ASSERT_TRUE(two.ok()) << two.status();
     ASSERT_EQ(two->alignments.size(), 1u);
@@ -52,9 +52,9 @@ TEST(RegistrationTest, ALaterScanWithBadCornersIsInvalidArgumentNamingIt) {
     const sim::Scene first = sim::SimulateScene(View(0.0, 1));
     Corners crossed = first.opening_corners_scan;
     std::swap(crossed[1], crossed[2]);
-    const auto r = RegisterContainer(first.opening_corners_scan,
-                                     {{first.points, std::nullopt}, {first.points, crossed}},
-                                     RegistrationConfig{});
+    const auto r = RegisterContainer(
+        first.opening_corners_scan, {{first.points, std::nullopt, {}}, {first.points, crossed, {}}},
+        RegistrationConfig{});
     ASSERT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(r.status().message().find("empty scan 2"), std::string::npos) << r.status();
 }
@@ -66,7 +66,7 @@ TEST(RegistrationTest, ALaterScanOfSomethingElseIsRefusedNamingIt) {
         for (double y = -1.0; y <= 1.0; y += 0.02) wall.emplace_back(x, y, 6.0);
     }
     const auto r = RegisterContainer(first.opening_corners_scan,
-                                     {{first.points, std::nullopt}, {wall, std::nullopt}},
+                                     {{first.points, std::nullopt, {}}, {wall, std::nullopt, {}}},
                                      RegistrationConfig{});
     ASSERT_EQ(r.status().code(), absl::StatusCode::kFailedPrecondition);
     EXPECT_NE(r.status().message().find("empty scan 2"), std::string::npos) << r.status();
@@ -86,8 +86,8 @@ class RegistrationStopTest : public ::testing::Test {
         const sim::Scene first = sim::SimulateScene(View(0.0, 1));
         const sim::Scene turned = sim::SimulateScene(View(180.0, 2));
         corners_ = new Corners(first.opening_corners_scan);
-        scans_ = new std::vector<EmptyScan>{{first.points, std::nullopt},
-                                            {turned.points, turned.opening_corners_scan}};
+        scans_ = new std::vector<EmptyScan>{{first.points, std::nullopt, {}},
+                                            {turned.points, turned.opening_corners_scan, {}}};
     }
     static void TearDownTestSuite() {
         delete corners_;

@@ -298,3 +298,53 @@ TEST(SceneTest, PointCountsPerContainer) {
 
 }  // namespace
 }  // namespace soilvol::sim
+
+namespace soilvol::sim {
+namespace {
+
+// A rig keeps its sensors' poses relative to each other: the container's jitter moves it in
+// both sensors' frames alike, and each further sensor's returns lie on the container as the
+// first sensor sees it.
+TEST(MultiSensorSceneTest, TheRigKeepsItsShapeAndBothSensorsSeeOneContainer) {
+    const ContainerShape shape = RandomShape(ContainerFamily::kBox, 4);
+    std::vector<SensorSpec> bridge = BridgeViewpoints(shape, 4);
+    ASSERT_EQ(bridge.size(), 2u);
+    EXPECT_NEAR(std::abs(bridge[1].azimuth_deg - bridge[0].azimuth_deg), 180.0, 1e-9);
+    for (SensorSpec& s : bridge) s.range_noise_sigma_m = 0.0;
+    SceneSpec spec;
+    spec.shape = shape;
+    spec.sensor = bridge[0];
+    spec.jitter = {5.0, 0.1};
+    std::vector<Pose> rig;
+    for (const uint64_t seed : {1u, 2u}) {
+        spec.scan_seed = seed;
+        const MultiSensorScene scene = SimulateMultiSensorScene(spec, {bridge[1]});
+        ASSERT_EQ(scene.more.size(), 1u);
+        ASSERT_GT(scene.more[0].points.size(), 1000u);
+        rig.push_back(scene.more[0].T_scan_sensor);
+        // Noise-free returns of the far sensor, in the scan frame, lie on the container or
+        // the soil the first sensor's frame places: within the opening's box, near its plane
+        // or below it.
+        const Pose T_container_scan = scene.scene.T_scan_container.inverse();
+        int inside = 0;
+        for (const auto& p : scene.more[0].points) {
+            const Eigen::Vector3d c =
+                T_container_scan * (scene.more[0].T_scan_sensor * p.cast<double>());
+            if (std::abs(c.x()) < shape.length_m && std::abs(c.y()) < shape.width_m &&
+                c.z() < 0.2) {
+                ++inside;
+            }
+        }
+        EXPECT_GT(inside, static_cast<int>(scene.more[0].points.size() / 2));
+    }
+    EXPECT_LT((rig[0].matrix() - rig[1].matrix()).cwiseAbs().maxCoeff(), 1e-9);
+    // The sensor itself is the first one's: the identity.
+    spec.scan_seed = 3;
+    const MultiSensorScene same = SimulateMultiSensorScene(spec, {bridge[0]});
+    EXPECT_LT(
+        (same.more[0].T_scan_sensor.matrix() - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff(),
+        1e-9);
+}
+
+}  // namespace
+}  // namespace soilvol::sim

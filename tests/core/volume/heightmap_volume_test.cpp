@@ -71,7 +71,7 @@ TEST(HeightmapVolumeTest, PlanarFillIsWithinThreeTenThousandthsAtEveryCellSize) 
         HeightmapConfig config;
         config.cell_m = cell;
         const auto result =
-            HeightmapVolume(Seen(empty, 0.0, true), Seen(scan, 0.0, true)[0], kOpening, config);
+            HeightmapVolume(Seen(empty, 0.0, true), Seen(scan, 0.0, true), kOpening, config);
         ASSERT_TRUE(result.ok()) << result.status();
         EXPECT_NEAR(result->volume_m3, expected, 3e-4 * expected) << "cell " << cell;
     }
@@ -86,7 +86,7 @@ TEST(HeightmapVolumeTest, EmptyContainerReadsZeroWithoutPositiveBias) {
         const Cloud empty = Sample(floor, 1500, 0.04, 100 + seed);
         const Cloud scan = Sample(floor, 1500, 0.04, 200 + seed);
         const auto result =
-            HeightmapVolume(Seen(empty, 0.04), Seen(scan, 0.04)[0], kOpening, HeightmapConfig{});
+            HeightmapVolume(Seen(empty, 0.04), Seen(scan, 0.04), kOpening, HeightmapConfig{});
         ASSERT_TRUE(result.ok()) << result.status();
         sum += result->raw_volume_m3;
         sum_sq += result->raw_volume_m3 * result->raw_volume_m3;
@@ -131,7 +131,7 @@ TEST(HeightmapVolumeTest, VerticalWallReturnsTellNoHeight) {
     for (const double cell : {0.03, 0.05, 0.10, 0.15}) {
         HeightmapConfig config;
         config.cell_m = cell;
-        const auto result = HeightmapVolume(Seen(empty, 0.02), Seen(filled, 0.02)[0], box, config);
+        const auto result = HeightmapVolume(Seen(empty, 0.02), Seen(filled, 0.02), box, config);
         ASSERT_TRUE(result.ok()) << result.status();
         EXPECT_NEAR(result->volume_m3, expected, 0.02 * expected) << "cell " << cell;
     }
@@ -148,7 +148,7 @@ TEST(HeightmapVolumeTest, OccludedStripIsInterpolated) {
     HeightmapConfig config;
     config.cell_m = 0.05;
     const auto result =
-        HeightmapVolume(Seen(empty, 0.0, true), Seen(scan, 0.0, true)[0], kOpening, config);
+        HeightmapVolume(Seen(empty, 0.0, true), Seen(scan, 0.0, true), kOpening, config);
     ASSERT_TRUE(result.ok()) << result.status();
     EXPECT_GT(result->cells.interpolated, 20);
     double ax = 0, area = 0;
@@ -191,7 +191,7 @@ TEST(HeightmapVolumeTest, GridsStayWithinTheCellBudget) {
     const Cloud empty = Sample([](double, double) { return -0.6; }, 2000, 0.0, 1, wagon);
     const Cloud scan = Sample([](double, double) { return -0.3; }, 2000, 0.0, 2, wagon);
     const auto result =
-        HeightmapVolume(Seen(empty, 0.0, true), Seen(scan, 0.0, true)[0], wagon, config);
+        HeightmapVolume(Seen(empty, 0.0, true), Seen(scan, 0.0, true), wagon, config);
     ASSERT_FALSE(result.ok());
     EXPECT_EQ(result.status().code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(result.status().message().find("grid_cell_m"), std::string::npos) << result.status();
@@ -200,7 +200,8 @@ TEST(HeightmapVolumeTest, GridsStayWithinTheCellBudget) {
 TEST(HeightmapVolumeTest, NoScanPointsIsFailedPrecondition) {
     const Cloud empty = Sample([](double, double) { return -0.6; }, 2000, 0.0, 1);
     const auto result =
-        HeightmapVolume(Seen(empty, 0.0, true), WeightedCloud{}, kOpening, HeightmapConfig{});
+        HeightmapVolume(Seen(empty, 0.0, true), std::vector<WeightedCloud>{WeightedCloud{}},
+                        kOpening, HeightmapConfig{});
     ASSERT_FALSE(result.ok());
     EXPECT_EQ(result.status().code(), absl::StatusCode::kFailedPrecondition);
 }
@@ -218,14 +219,14 @@ TEST(HeightmapVolumeTest, ScanBelowTheEmptySurfaceIsCountedCellByCell) {
     const Cloud empty = Sample(floor, 20000, 0.025, 21);
     HeightmapConfig config;
     config.cell_m = 0.1;
-    const auto sunk = HeightmapVolume(
-        Seen(empty, 0.025),
-        Seen(Sample([](double, double) { return -0.7; }, 20000, 0.025, 22), 0.025)[0], kOpening,
-        config);
+    const auto sunk =
+        HeightmapVolume(Seen(empty, 0.025),
+                        Seen(Sample([](double, double) { return -0.7; }, 20000, 0.025, 22), 0.025),
+                        kOpening, config);
     ASSERT_TRUE(sunk.ok()) << sunk.status();
     EXPECT_GT(sunk->cells.below_empty, 0.9 * sunk->cells.both_measured);
     const auto right = HeightmapVolume(
-        Seen(empty, 0.025), Seen(Sample(floor, 20000, 0.025, 23), 0.025)[0], kOpening, config);
+        Seen(empty, 0.025), Seen(Sample(floor, 20000, 0.025, 23), 0.025), kOpening, config);
     ASSERT_TRUE(right.ok()) << right.status();
     EXPECT_LT(right->cells.below_empty, 0.02 * right->cells.both_measured);
 }
@@ -250,10 +251,10 @@ TEST(HeightmapVolumeTest, HiddenStripOfSoilCarriesItsRangeAsUncertainty) {
     }
     HeightmapConfig config;
     config.cell_m = 0.05;
-    const auto seen_all = HeightmapVolume(Seen(empty, 0.0), Seen(full, 0.0)[0], kOpening, config);
+    const auto seen_all = HeightmapVolume(Seen(empty, 0.0), Seen(full, 0.0), kOpening, config);
     ASSERT_TRUE(seen_all.ok()) << seen_all.status();
     EXPECT_LT(seen_all->unobserved_uncertainty_m3, 0.001);  // a few cut edge cells
-    const auto hidden = HeightmapVolume(Seen(empty, 0.0), Seen(scan, 0.0)[0], kOpening, config);
+    const auto hidden = HeightmapVolume(Seen(empty, 0.0), Seen(scan, 0.0), kOpening, config);
     ASSERT_TRUE(hidden.ok()) << hidden.status();
     // The strip is about 1.9 m x 0.2 m; the rays over it run from the soil's height up to
     // about 30 cm above it (from kSensor), 20-50 cm above the floor.
@@ -278,14 +279,14 @@ TEST(HeightmapVolumeTest, HiddenBandRangesNoSteeperThanTheHeapSlopeFromItsSeenEd
     }
     HeightmapConfig config;
     config.cell_m = 0.05;
-    const auto hidden = HeightmapVolume(Seen(empty, 0.0), Seen(scan, 0.0)[0], kOpening, config);
+    const auto hidden = HeightmapVolume(Seen(empty, 0.0), Seen(scan, 0.0), kOpening, config);
     ASSERT_TRUE(hidden.ok()) << hidden.status();
     // The band is about 1.9 m long and 0.35-0.4 m wide: a range of 2 x slope x distance to the
     // edge integrates to 2 / sqrt(12) x L x W^2 / 2; floor to rays would be about 0.14 m^3.
     const double bound = 2.0 / std::sqrt(12.0) * 1.9 * 0.4 * 0.4 / 2.0;
     EXPECT_LT(hidden->unobserved_uncertainty_m3, bound);
     EXPECT_GT(hidden->unobserved_uncertainty_m3, 0.1 * bound);
-    const auto seen_all = HeightmapVolume(Seen(empty, 0.0), Seen(full, 0.0)[0], kOpening, config);
+    const auto seen_all = HeightmapVolume(Seen(empty, 0.0), Seen(full, 0.0), kOpening, config);
     ASSERT_TRUE(seen_all.ok()) << seen_all.status();
     EXPECT_NEAR(hidden->volume_m3, seen_all->volume_m3, 2.0 * hidden->uncertainty_m3);
 }
@@ -297,7 +298,7 @@ TEST(HeightmapVolumeTest, CellsFinerThanTheSpacingAreNotUnobserved) {
     HeightmapConfig config;
     config.cell_m = 0.01;  // the returns lie about 2.5 cm apart
     const auto result = HeightmapVolume(Seen(Sample(floor, 2000, 0.0, 7), 0.0),
-                                        Seen(Sample(soil, 2000, 0.0, 8), 0.0)[0], kOpening, config);
+                                        Seen(Sample(soil, 2000, 0.0, 8), 0.0), kOpening, config);
     ASSERT_TRUE(result.ok()) << result.status();
     EXPECT_GT(result->cells.interpolated, result->cells.total / 4);
     EXPECT_LT(result->unobserved_uncertainty_m3, 0.002);
