@@ -171,11 +171,16 @@ FamilyRows RunFamilies(int seeds, int empty_scans, std::ostream& kv,
         const double coverage = count > 0 ? static_cast<double>(within) / count : 0.0;
         int refused = 0;
         for (const Cell& c : cells) refused += c.failures;
-        seen_rows << absl::StrFormat(
-            "| %s | %s | %.2f | %.2f | %.2f | %.2f | %.3f (%.3f) | %d/%d |\n", name, kind,
-            MeanAbs(all), MaxAbs(all), MeanAbs(cells[0].error_pct), coverage, Mean(seen),
-            seen.empty() ? 0.0 : *std::min_element(seen.begin(), seen.end()), refused,
-            seeds * static_cast<int>(kFillShares.size()));
+        if (all.empty()) {  // every estimate refused: no figure to show
+            seen_rows << absl::StrFormat("| %s | %s | - | - | - | - | - | %d/%d |\n", name, kind,
+                                         refused, seeds * static_cast<int>(kFillShares.size()));
+        } else {
+            seen_rows << absl::StrFormat(
+                "| %s | %s | %.2f | %.2f | %.2f | %.2f | %.3f (%.3f) | %d/%d |\n", name, kind,
+                MeanAbs(all), MaxAbs(all), MeanAbs(cells[0].error_pct), coverage, Mean(seen),
+                *std::min_element(seen.begin(), seen.end()), refused,
+                seeds * static_cast<int>(kFillShares.size()));
+        }
         if (capacity_pct.empty()) {  // no seed registered: nothing to average
             summary << absl::StrFormat(
                 "| %s | %s | - | - | - | - | registration refused (%d of %d) "
