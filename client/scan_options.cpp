@@ -6,6 +6,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "client/input_files.hpp"
+#include "core/common/status_macros.hpp"
 
 namespace soilvol::client {
 namespace {
@@ -84,6 +85,38 @@ absl::StatusOr<v1::Scan> BuildDepthScan(const DepthOptions& options) {
     return scan;
 }
 
+void SetPose(const double* p, v1::Pose* pose) {
+    pose->mutable_position_m()->set_x(p[0]);
+    pose->mutable_position_m()->set_y(p[1]);
+    pose->mutable_position_m()->set_z(p[2]);
+    pose->mutable_orientation()->set_w(p[3]);
+    pose->mutable_orientation()->set_x(p[4]);
+    pose->mutable_orientation()->set_y(p[5]);
+    pose->mutable_orientation()->set_z(p[6]);
+}
+
+// The other sensors' clouds, each with its pose when given.
+absl::Status AddMoreClouds(const ScanOptions& options, v1::Scan& scan) {
+    constexpr std::size_t kPose = 7;
+    if (!options.more_poses.empty() &&
+        options.more_poses.size() != kPose * options.more_clouds.size()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("--also-sensor-pose: give 7 numbers (x,y,z,qw,qx,qy,qz) for each of the ",
+                         options.more_clouds.size(), " --also-cloud files (got ",
+                         options.more_poses.size(), " numbers)"));
+    }
+    for (std::size_t i = 0; i < options.more_clouds.size(); ++i) {
+        absl::StatusOr<std::string> data = ReadFile(options.more_clouds[i]);
+        if (!data.ok()) return data.status();
+        v1::CloudScan* cloud = scan.add_additional_sensors()->mutable_cloud();
+        cloud->set_data(*std::move(data));
+        if (!options.more_poses.empty()) {
+            SetPose(&options.more_poses[kPose * i], cloud->mutable_sensor_pose());
+        }
+    }
+    return absl::OkStatus();
+}
+
 }  // namespace
 
 void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& what) {
@@ -107,6 +140,19 @@ void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& 
     calibration->needs(left, right);
     CLI::Option* depth = AddDepthOptions(command, &options->depth, what);
     for (auto* other : {cloud, left, right, calibration}) other->excludes(depth);
+    auto* more = command->add_option(
+        "--also-cloud", options->more_clouds,
+        what +
+            ": another sensor's cloud taken together with --cloud or --depth (repeat for "
+            "more; poses in the first sensor's shared frame)");
+    command
+        ->add_option("--also-sensor-pose", options->more_poses,
+                     "each --also-cloud's sensor pose in the shared frame, in order: "
+                     "x,y,z,qw,qx,qy,qz per cloud (default: each cloud's own VIEWPOINT or "
+                     "origin)")
+        ->delimiter(',')
+        ->needs(more);
+    for (auto* stereo : {left, right, calibration}) more->excludes(stereo);
 }
 
 absl::StatusOr<v1::Scan> BuildScan(const ScanOptions& options) {
@@ -116,19 +162,16 @@ absl::StatusOr<v1::Scan> BuildScan(const ScanOptions& options) {
         if (!data.ok()) return data.status();
         scan.mutable_cloud()->set_data(*std::move(data));
         if (options.sensor_pose.size() == 7) {
-            const std::vector<double>& p = options.sensor_pose;
-            v1::Pose* pose = scan.mutable_cloud()->mutable_sensor_pose();
-            pose->mutable_position_m()->set_x(p[0]);
-            pose->mutable_position_m()->set_y(p[1]);
-            pose->mutable_position_m()->set_z(p[2]);
-            pose->mutable_orientation()->set_w(p[3]);
-            pose->mutable_orientation()->set_x(p[4]);
-            pose->mutable_orientation()->set_y(p[5]);
-            pose->mutable_orientation()->set_z(p[6]);
+            SetPose(options.sensor_pose.data(), scan.mutable_cloud()->mutable_sensor_pose());
         }
+        SOILVOL_RETURN_IF_ERROR(AddMoreClouds(options, scan));
         return scan;
     }
-    if (!options.depth.depth.empty()) return BuildDepthScan(options.depth);
+    if (!options.depth.depth.empty()) {
+        SOILVOL_ASSIGN_OR_RETURN(scan, BuildDepthScan(options.depth));
+        SOILVOL_RETURN_IF_ERROR(AddMoreClouds(options, scan));
+        return scan;
+    }
     if (options.left.empty() || options.right.empty() || options.calibration.empty()) {
         return absl::InvalidArgumentError(
             "a scan needs --cloud FILE, --left FILE --right FILE --calibration ID, or --depth "

@@ -32,16 +32,21 @@ struct ScanOptions {
     std::string right;
     std::string calibration;
     DepthOptions depth;
+    /// The scan's other sensors' clouds (Scan.additional_sensors), and their sensors' poses in
+    /// the shared frame: none, or 7 numbers per cloud in order.
+    std::vector<std::string> more_clouds;
+    std::vector<double> more_poses;
 };
 
-/// Adds --cloud [--sensor-pose] | (--left --right --calibration) | (--depth --intrinsics ...)
-/// to `command`;
+/// Adds --cloud [--sensor-pose] | (--left --right --calibration) | (--depth --intrinsics ...),
+/// and [--also-cloud FILE [--also-sensor-pose ...]]... for a scan of several sensors, to
+/// `command`;
 /// `what` says which scan it is.
 void AddScanOptions(CLI::App* command, ScanOptions* options, const std::string& what);
 
 /// Reads the files into a Scan. InvalidArgument for a missing source, an incomplete stereo
-/// triple, a depth image without its intrinsics, an unknown lens or an unreadable file (naming
-/// it).
+/// triple, a depth image without its intrinsics, an unknown lens, an unreadable file (naming
+/// it), or --also-sensor-pose not 7 numbers per --also-cloud.
 absl::StatusOr<v1::Scan> BuildScan(const ScanOptions& options);
 
 }  // namespace soilvol::client

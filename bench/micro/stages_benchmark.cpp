@@ -12,6 +12,7 @@
 #include <string_view>
 
 #include "bench/trial.hpp"
+#include "core/cloud/angular_sampling.hpp"
 #include "core/cloud/outlier_filter.hpp"
 #include "core/cloud/preprocess.hpp"
 #include "core/cloud/voxel_grid.hpp"
@@ -88,6 +89,17 @@ void BM_VoxelGrid(benchmark::State& state) {
     Report(state, s->sized.scene.points.size());
 }
 
+// What registration adds to find a spinning lidar's rows (once per empty scan and sensor).
+void BM_AngularSampling(benchmark::State& state) {
+    const Stages* s = Prepare(state);
+    if (s == nullptr) return;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(
+            cloud::MeasureAngularSampling(s->pre.points, Eigen::Vector3d::Zero()));
+    }
+    Report(state, s->pre.points.size());
+}
+
 void BM_Preprocess(benchmark::State& state) {
     const Stages* s = Prepare(state);
     if (s == nullptr) return;
@@ -140,6 +152,7 @@ void Sizes(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_DecodePly)->Apply(Sizes);
 BENCHMARK(BM_VoxelGrid)->Apply(Sizes);
+BENCHMARK(BM_AngularSampling)->Apply(Sizes);
 BENCHMARK(BM_Preprocess)->Apply(Sizes);
 BENCHMARK(BM_Align)->Apply(Sizes);
 BENCHMARK(BM_Volume)->Apply(Sizes);

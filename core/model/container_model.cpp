@@ -6,6 +6,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/cloud/angular_sampling.hpp"
 #include "core/cloud/kd_tree.hpp"
 #include "core/cloud/local_surface.hpp"
 #include "core/cloud/ray_weights.hpp"
@@ -327,20 +328,45 @@ namespace {
 struct SensorPoints {
     Cloud points;
     Eigen::Vector3d sensor;
+    double row_gap_m = 0.0;  ///< between the sensor's rows at the median range; 0: no rows
 };
+
+// The gap between a sensor's rows of returns at the median range, from its own-frame points
+// (the sensor at the origin); 0 when it does not scan in rows.
+double RowGap(const Cloud& own_frame) {
+    const cloud::AngularSampling sampling =
+        cloud::MeasureAngularSampling(own_frame, Eigen::Vector3d::Zero());
+    if (!sampling.rows) return 0.0;
+    std::vector<float> range;
+    range.reserve(own_frame.size());
+    for (const auto& p : own_frame) range.push_back(p.norm());
+    return QuantileInPlace(range, 0.5) * sampling.across_rad;
+}
+
+// Rows of returns far apart (a spinning lidar's rings) widen the smoothing until every
+// neighbourhood spans rows: within one row a neighbourhood is a line, whose normal is
+// arbitrary and matches nothing.
+void WidenSmoothingToRows(const std::vector<SensorPoints>& sensors, const ModelConfig& config,
+                          ContainerModel& model) {
+    for (const SensorPoints& sensor : sensors) {
+        model.smoothing_radius_m =
+            std::max(model.smoothing_radius_m,
+                     std::min(config.max_smoothing_radius_m, config.row_gaps * sensor.row_gap_m));
+    }
+}
 
 absl::StatusOr<std::vector<SensorPoints>> EmptyScanInContainer(
     const Cloud& first, const std::vector<SensorCloud>& more_sensors, const Pose& T_scan_container,
     const ModelConfig& config, const Polygon2d& opening, const StopToken& stop) {
     std::vector<SensorPoints> out;
     out.reserve(1 + more_sensors.size());
-    out.push_back(
-        {ToContainerFrame(first, T_scan_container), SensorInContainer(T_scan_container, opening)});
+    out.push_back({ToContainerFrame(first, T_scan_container),
+                   SensorInContainer(T_scan_container, opening), RowGap(first)});
     for (const SensorCloud& more : more_sensors) {
         const cloud::PreprocessResult pre = cloud::Preprocess(more.points, config.preprocess, stop);
         const Pose T_sensor_container = more.T_scan_sensor.inverse() * T_scan_container;
         out.push_back({ToContainerFrame(pre.points, T_sensor_container),
-                       SensorInContainer(T_sensor_container, opening)});
+                       SensorInContainer(T_sensor_container, opening), RowGap(pre.points)});
     }
     SOILVOL_RETURN_IF_ERROR(stop.Check("preprocessing of the empty scan"));
     return out;
@@ -373,6 +399,7 @@ absl::StatusOr<ContainerModel> BuildContainerModel(const Cloud& empty_scan,
     for (const SensorPoints& sensor : sensors) model.scan_points += sensor.points.size();
     SOILVOL_RETURN_IF_ERROR(stop.Check("noise of the empty scan"));
     SOILVOL_RETURN_IF_ERROR(MeasureNoise(sensors[0].points, config, model, stop));
+    WidenSmoothingToRows(sensors, config, model);
     Cloud all;
     for (std::size_t i = 1; i < sensors.size(); ++i) {
         if (all.empty()) all = sensors[0].points;

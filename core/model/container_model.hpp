@@ -29,6 +29,12 @@ struct ModelConfig {
     double smoothing_voxel_m = 0.03;
     double smoothing_radius_m = 0.08;  ///< at least; `smoothing_sigmas` noise sigmas when larger
     double smoothing_sigmas = 3.0;
+    /// A sensor that scans in rows far apart (a spinning lidar's rings, cloud::
+    /// MeasureAngularSampling) smooths over `row_gaps` gaps between its rows at the scan's
+    /// median range, so that every neighbourhood spans rows (one row is a line: no normal), up
+    /// to `max_smoothing_radius_m`; every later scan is smoothed as widely.
+    double row_gaps = 1.25;
+    double max_smoothing_radius_m = 0.32;
     /// Returns within this many noise sigmas of the container's structure (its surfaces outside
     /// the opening's column: rim, outer walls, linkage, high sides) are not contents.
     double structure_sigmas = 2.5;

@@ -69,7 +69,14 @@ class Cli(unittest.TestCase):
                 z = depth_scene.millimetres(depth_scene.render(fill, 0.002, seed=seed))
                 points = depth_scene.back_project_as_core(z)
                 site = points.astype(np.float64) @ rotation.T + origin
-                for frame, cloud in (("sensor", points), ("site", site)):
+                # The image's halves, as two sensors' parts of one scan (same pose).
+                halves = [z.copy(), z.copy()]
+                halves[0][:, depth_scene.WIDTH // 2:] = 0
+                halves[1][:, :depth_scene.WIDTH // 2] = 0
+                parts = [depth_scene.back_project_as_core(h).astype(np.float64) @ rotation.T
+                         + origin for h in halves]
+                for frame, cloud in (("sensor", points), ("site", site), ("left", parts[0]),
+                                     ("right", parts[1])):
                     paths[name, frame] = os.path.join(tmp, f"{name}-{frame}.ply")
                     with open(paths[name, frame], "wb") as f:
                         f.write(box_scene.encode_ply(cloud))
@@ -83,6 +90,18 @@ class Cli(unittest.TestCase):
                                                 "--cloud", paths["full", "sensor"]).stdout)
             self.assertLess(abs(in_site["volumeM3"] - in_sensor["volumeM3"]),
                             0.0005 * box_scene.STRUCK_M3)
+            # Two sensors' parts of one scan (Scan.additional_sensors), each with its pose.
+            in_parts = json.loads(self.run_cli(
+                "--json", "estimate", "--id", "cli-gantry", "--cloud", paths["full", "left"],
+                "--sensor-pose", pose, "--also-cloud", paths["full", "right"],
+                "--also-sensor-pose", pose).stdout)
+            self.assertLess(abs(in_parts["volumeM3"] - in_sensor["volumeM3"]),
+                            0.005 * box_scene.STRUCK_M3)
+            short = self.run_cli("estimate", "--id", "cli-gantry", "--cloud",
+                                 paths["full", "left"], "--also-cloud", paths["full", "right"],
+                                 "--also-sensor-pose", "1,2,3", check=False)
+            self.assertEqual(short.returncode, 2, short.stderr)  # a usage error
+            self.assertIn("--also-sensor-pose: give 7 numbers", short.stderr)
             self.run_cli("containers", "delete", "cli-gantry")
 
     def test_register_and_estimate_from_depth_images(self):

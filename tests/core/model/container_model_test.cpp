@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/sim/scene.hpp"
+#include "core/sim/tof_sensor.hpp"
 
 namespace soilvol::model {
 namespace {
@@ -91,6 +92,31 @@ TEST(ContainerModelTest, OnlyTheInsideVisibleIsFailedPrecondition) {
     ASSERT_FALSE(model.ok());
     EXPECT_EQ(model.status().code(), absl::StatusCode::kFailedPrecondition);
     EXPECT_NE(model.status().message().find("outside"), std::string::npos);
+}
+
+// A spinning lidar's rings 1.33 deg apart, 5 m from a truck bed, are 12 cm apart there: each
+// 8 cm neighbourhood would be one ring. The model smooths over 1.25 gaps; a ray grid of 0.5 deg
+// (no rows) keeps the configured radius.
+TEST(ContainerModelTest, ALidarsRingsWidenTheSmoothingAGridDoesNot) {
+    sim::SceneSpec spec;
+    spec.container = sim::ContainerKind::kTruckBed;
+    spec.sensor = sim::ViewpointFor(sim::ContainerKind::kTruckBed);
+    spec.scan_seed = 5;
+    const sim::Scene grid = sim::SimulateScene(spec);
+    spec.sensor = sim::TypicalSpinningLidar(spec.sensor);
+    const sim::Scene rings = sim::SimulateScene(spec);
+    const ModelConfig config;
+    const auto from_grid = BuildContainerModel(grid.points, grid.opening_corners_scan, config);
+    const auto from_rings = BuildContainerModel(rings.points, rings.opening_corners_scan, config);
+    ASSERT_TRUE(from_grid.ok()) << from_grid.status();
+    ASSERT_TRUE(from_rings.ok()) << from_rings.status();
+    EXPECT_NEAR(
+        from_grid->smoothing_radius_m,
+        std::max(config.smoothing_radius_m, config.smoothing_sigmas * from_grid->noise_sigma_m),
+        1e-12);
+    // 1.25 x 1.33 deg at the scan's median range (5-7 m): 14-20 cm.
+    EXPECT_GT(from_rings->smoothing_radius_m, 0.14);
+    EXPECT_LT(from_rings->smoothing_radius_m, 0.21);
 }
 
 }  // namespace
