@@ -282,6 +282,41 @@ def curl_json(server, path, *args):
     return int(status), json.loads(body) if body else None
 
 
+def post_json(server, directory, path, body):
+    """(HTTP status, parsed JSON) of POSTing `body` (a dict) as JSON to `path` with curl, the
+    body written to `directory` first (large scans exceed a command line)."""
+    data = write_file(directory, "request.json", json.dumps(body).encode())
+    return curl_json(server, path, "-H", "Content-Type: application/json", "--data-binary",
+                     f"@{data}")
+
+
+class SharedServerCase(unittest.TestCase):
+    """Tests against the shared server over REST (curl) and gRPC: `server`, `stub` (gRPC
+    modules `grpc_modules`, as load_grpc gives them) and a scratch directory `dir` named after
+    `scratch_prefix`; `setUpServer` (a classmethod) adds what the case registers."""
+    grpc_modules = None
+    scratch_prefix = "soilvol-"
+
+    @classmethod
+    def setUpClass(cls):
+        grpc, _, pb_grpc = cls.grpc_modules
+        cls.server = shared_server()
+        cls.channel = cls.server.channel(grpc)
+        cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
+        cls.dir = tempfile.mkdtemp(prefix=cls.scratch_prefix)
+        cls.setUpServer()
+
+    @classmethod
+    def setUpServer(cls):
+        pass
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.channel.close()
+        shutil.rmtree(cls.dir, ignore_errors=True)
+        cls.server.close()
+
+
 def wait_until(predicate, timeout_s=10.0, step_s=0.05):
     end = time.time() + timeout_s
     while time.time() < end:

@@ -3,11 +3,8 @@ ray casting) mounted 5 m up a gantry and tilted 30 deg, given once in the sensor
 with the sensor's pose: as CloudScan.sensor_pose over REST JSON and gRPC, and as a PCD's own
 VIEWPOINT over a binary upload. Every form answers within 0.05% of struck of the sensor frame's
 answer (issue 29), registration too, and hostile poses are refused naming the field."""
-import json
 import os
-import shutil
 import sys
-import tempfile
 import unittest
 
 import numpy as np
@@ -15,8 +12,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
 import depth_scene  # noqa: E402
-from harness import (CURL, SKIPPED, b64, corners_json, curl_json, load_grpc,  # noqa: E402
-                     shared_server, write_file)
+from harness import (CURL, SKIPPED, SharedServerCase, b64, corners_json,  # noqa: E402
+                     curl_json, load_grpc, post_json, write_file)
 
 grpc, pb, pb_grpc = load_grpc()
 if CURL is None:
@@ -60,23 +57,16 @@ def viewpoint_line():
     return " ".join(f"{v:.17g}" for v in (*SITE_T, *SITE_Q))
 
 
-class SensorPose(unittest.TestCase):
+class SensorPose(SharedServerCase):
+    grpc_modules = (grpc, pb, pb_grpc)
+    scratch_prefix = "soilvol-pose-"
+
     @classmethod
-    def setUpClass(cls):
-        cls.server = shared_server()
-        cls.channel = cls.server.channel(grpc)
-        cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
-        cls.dir = tempfile.mkdtemp(prefix="soilvol-pose-")
+    def setUpServer(cls):
         cls.opening = corners_json(depth_scene.opening_corners())
         cls.empty = sensor_scan(0.0, seed=1)
         status, cls.container = cls.register("gantry-box", cls.cloud(cls.empty))
         assert status == 200, cls.container
-
-    @classmethod
-    def tearDownClass(cls):
-        cls.channel.close()
-        shutil.rmtree(cls.dir, ignore_errors=True)
-        cls.server.close()
 
     @classmethod
     def cloud(cls, points, sensor_pose=None):
@@ -87,17 +77,13 @@ class SensorPose(unittest.TestCase):
 
     @classmethod
     def register(cls, container_id, scan):
-        body = json.dumps({"containerId": container_id, "scan": scan,
-                           "opening": cls.opening, "overwrite": True})
-        path = write_file(cls.dir, "register.json", body.encode())
-        return curl_json(cls.server, "/v1/containers", "-H", "Content-Type: application/json",
-                         "--data-binary", f"@{path}")
+        return post_json(cls.server, cls.dir, "/v1/containers",
+                         {"containerId": container_id, "scan": scan, "opening": cls.opening,
+                          "overwrite": True})
 
     def estimate_json(self, scan, container_id="gantry-box"):
-        body = json.dumps({"skipRecord": True, "scan": scan})
-        path = self.write("request.json", body.encode())
-        return curl_json(self.server, f"/v1/containers/{container_id}:estimate",
-                         "-H", "Content-Type: application/json", "--data-binary", f"@{path}")
+        return post_json(self.server, self.dir, f"/v1/containers/{container_id}:estimate",
+                         {"skipRecord": True, "scan": scan})
 
     def write(self, name, data):
         return write_file(self.dir, name, data)

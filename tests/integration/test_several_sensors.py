@@ -7,24 +7,17 @@ does, over REST JSON and gRPC; what the parts saw is counted once; hostile parts
 naming the field. (Two sensors at different places: the bench's multi-sensor table.)"""
 import json
 import os
-import shutil
 import sys
-import tempfile
 import unittest
-
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
 import depth_scene  # noqa: E402
-from harness import (CURL, SKIPPED, b64, corners_json, curl_json, load_grpc,  # noqa: E402
-                     shared_server, write_file)
+# Its gantry pose, its checks that curl is there, and its gRPC modules.
 import test_sensor_pose as site  # noqa: E402
+from harness import SharedServerCase, b64, corners_json, post_json  # noqa: E402
 
-grpc, pb, pb_grpc = load_grpc()
-if CURL is None:
-    print("skipped: curl is not installed", file=sys.stderr)
-    sys.exit(1 if os.environ.get("SOILVOL_REQUIRE_TOOLS") else SKIPPED)
+grpc, pb, pb_grpc = site.grpc, site.pb, site.pb_grpc
 
 # The halves are filtered apart (outliers per cloud, flying pixels on the depth half only): a
 # few returns at the seam and the rim differ from the whole image's.
@@ -53,13 +46,12 @@ def two_part_scan(left_points, right_png):
                                              "sensorPose": site.pose_json()}}]}
 
 
-class SeveralSensors(unittest.TestCase):
+class SeveralSensors(SharedServerCase):
+    grpc_modules = (grpc, pb, pb_grpc)
+    scratch_prefix = "soilvol-sensors-"
+
     @classmethod
-    def setUpClass(cls):
-        cls.server = shared_server()
-        cls.channel = cls.server.channel(grpc)
-        cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
-        cls.dir = tempfile.mkdtemp(prefix="soilvol-sensors-")
+    def setUpServer(cls):
         cls.opening = corners_json(depth_scene.opening_corners())
         whole, left, right = halves(0.0, seed=21)
         status, cls.whole = cls.register("rig-whole", {"cloud": {"data": b64(
@@ -69,24 +61,14 @@ class SeveralSensors(unittest.TestCase):
         assert status == 200, cls.parts
 
     @classmethod
-    def tearDownClass(cls):
-        cls.channel.close()
-        shutil.rmtree(cls.dir, ignore_errors=True)
-        cls.server.close()
-
-    @classmethod
     def register(cls, container_id, scan):
-        body = json.dumps({"containerId": container_id, "scan": scan,
-                           "opening": cls.opening, "overwrite": True})
-        path = write_file(cls.dir, "register.json", body.encode())
-        return curl_json(cls.server, "/v1/containers", "-H", "Content-Type: application/json",
-                         "--data-binary", f"@{path}")
+        return post_json(cls.server, cls.dir, "/v1/containers",
+                         {"containerId": container_id, "scan": scan, "opening": cls.opening,
+                          "overwrite": True})
 
     def estimate(self, container_id, scan):
-        body = json.dumps({"skipRecord": True, "scan": scan})
-        path = write_file(self.dir, "estimate.json", body.encode())
-        return curl_json(self.server, f"/v1/containers/{container_id}:estimate",
-                         "-H", "Content-Type: application/json", "--data-binary", f"@{path}")
+        return post_json(self.server, self.dir, f"/v1/containers/{container_id}:estimate",
+                         {"skipRecord": True, "scan": scan})
 
     def assert_same(self, a, b, what):
         share = abs(a - b) / box_scene.STRUCK_M3
