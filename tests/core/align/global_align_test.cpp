@@ -9,12 +9,11 @@
 #include "core/align/icp.hpp"
 #include "core/cloud/local_surface.hpp"
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/angles.hpp"
 #include "tests/core/align/test_object.hpp"
 
 namespace soilvol::align {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 Cloud Noisy(const Cloud& c, const Pose& T, double sigma, unsigned seed) {
     std::mt19937 rng(seed);

@@ -7,13 +7,12 @@
 
 #include "core/cloud/local_surface.hpp"
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/angles.hpp"
 #include "tests/core/align/test_object.hpp"
 #include "tests/core/common/counting_stop.hpp"
 
 namespace soilvol::align {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // The model's alignment set: smoothed, voxel-thinned, with normals (as ContainerModel's).
 struct Source {

@@ -8,8 +8,8 @@
 namespace soilvol::depth {
 namespace {
 
-constexpr int kWidth = 160;
-constexpr int kHeight = 120;
+constexpr int kTableWidth = 160;
+constexpr int kTableHeight = 120;
 
 // The lens models written out (OpenCV's documentation of calib3d and of cv::fisheye), as an
 // independent forward model: normalised undistorted (x, y) -> pixel.
@@ -41,12 +41,12 @@ Eigen::Vector2d Distort(const DepthCamera& camera, const Eigen::Vector2f& ray) {
 }
 
 void ExpectRaysReproduceTheirPixels(const DepthCamera& camera, double min_share_valid) {
-    const auto table = RaysOf(camera, kWidth, kHeight);
+    const auto table = RaysOf(camera, kTableWidth, kTableHeight);
     ASSERT_TRUE(table.ok()) << table.status();
     std::size_t valid = 0;
-    for (int v = 0; v < kHeight; ++v) {
-        for (int u = 0; u < kWidth; ++u) {
-            const Eigen::Vector2f& ray = (*table)->At(v * kWidth + u);
+    for (int v = 0; v < kTableHeight; ++v) {
+        for (int u = 0; u < kTableWidth; ++u) {
+            const Eigen::Vector2f& ray = (*table)->At(v * kTableWidth + u);
             if (!std::isfinite(ray.x())) continue;
             ++valid;
             // float storage of x, y: ~1e-7 of a ray, 1e-5 px at these focal lengths.
@@ -54,14 +54,14 @@ void ExpectRaysReproduceTheirPixels(const DepthCamera& camera, double min_share_
                 << u << "," << v;
         }
     }
-    EXPECT_GE(static_cast<double>(valid), min_share_valid * kWidth * kHeight);
+    EXPECT_GE(static_cast<double>(valid), min_share_valid * kTableWidth * kTableHeight);
 }
 
 TEST(RayTableTest, PinholeRaysAreThePixelsOverTheFocalLength) {
     DepthCamera camera;
     camera.intrinsics = {150.0, 148.0, 80.2, 59.7, {}};
     ExpectRaysReproduceTheirPixels(camera, 1.0);
-    const auto table = RaysOf(camera, kWidth, kHeight);
+    const auto table = RaysOf(camera, kTableWidth, kTableHeight);
     ASSERT_TRUE(table.ok());
     EXPECT_FLOAT_EQ((*table)->At(0).x(), static_cast<float>(-80.2 / 150.0));
     EXPECT_FLOAT_EQ((*table)->At(0).y(), static_cast<float>(-59.7 / 148.0));
@@ -87,15 +87,15 @@ TEST(RayTableTest, FisheyeRaysProjectBackOrAreLeftOut) {
 TEST(RayTableTest, OneTablePerCameraIsKept) {
     DepthCamera camera;
     camera.intrinsics = {150.0, 150.0, 80.0, 60.0, {}};
-    const auto first = RaysOf(camera, kWidth, kHeight);
-    const auto again = RaysOf(camera, kWidth, kHeight);
+    const auto first = RaysOf(camera, kTableWidth, kTableHeight);
+    const auto again = RaysOf(camera, kTableWidth, kTableHeight);
     ASSERT_TRUE(first.ok() && again.ok());
     EXPECT_EQ(first->get(), again->get());
     camera.intrinsics.fx = 151.0;
-    const auto other = RaysOf(camera, kWidth, kHeight);
+    const auto other = RaysOf(camera, kTableWidth, kTableHeight);
     ASSERT_TRUE(other.ok());
     EXPECT_NE(first->get(), other->get());
-    EXPECT_EQ((*RaysOf(camera, kWidth, kHeight - 1))->height(), kHeight - 1);
+    EXPECT_EQ((*RaysOf(camera, kTableWidth, kTableHeight - 1))->height(), kTableHeight - 1);
 }
 
 }  // namespace

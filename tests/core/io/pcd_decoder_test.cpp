@@ -24,7 +24,7 @@ using test::IsInvalidWith;
 using test::RandomCloud;
 using test::SameBits;
 
-const Cloud kThree = {{1.0f, 2.0f, 3.0f}, {-4.5f, 5.25f, -6.0f}, {0.125f, 1e-3f, 1e6f}};
+const Cloud kThreePoints = {{1.0f, 2.0f, 3.0f}, {-4.5f, 5.25f, -6.0f}, {0.125f, 1e-3f, 1e6f}};
 
 // Double x/y/z between extra fields, some with COUNT > 1: 40 bytes per point.
 std::string ExtraFieldsHeader(std::string_view data) {
@@ -36,7 +36,7 @@ std::string ExtraFieldsHeader(std::string_view data) {
 
 std::string ExtraFieldsBinary() {
     std::string out = ExtraFieldsHeader("binary");
-    for (const Eigen::Vector3f& p : kThree) {
+    for (const Eigen::Vector3f& p : kThreePoints) {
         Append<std::uint16_t>(512, &out);
         for (int axis = 0; axis < 3; ++axis) Append<double>(static_cast<double>(p[axis]), &out);
         for (int k = 0; k < 3; ++k) Append<float>(0.5f, &out);
@@ -58,12 +58,12 @@ std::string Compress(const std::string& fields) {
 
 std::string ExtraFieldsCompressed() {
     std::string fields;
-    for (const Eigen::Vector3f& p : kThree) {
+    for (const Eigen::Vector3f& p : kThreePoints) {
         (void)p;
         Append<std::uint16_t>(512, &fields);
     }
     for (int axis = 0; axis < 3; ++axis) {
-        for (const Eigen::Vector3f& p : kThree) {
+        for (const Eigen::Vector3f& p : kThreePoints) {
             Append<double>(static_cast<double>(p[axis]), &fields);
         }
     }
@@ -84,14 +84,14 @@ std::size_t BodyOffset(const std::string& bytes) {
 TEST(PcdDecoderTest, DoubleBinaryWithExtraFieldsDecodes) {
     const auto decoded = DecodeCloud(ExtraFieldsBinary());
     ASSERT_TRUE(decoded.ok()) << decoded.status();
-    EXPECT_TRUE(SameBits(decoded->points, kThree));
+    EXPECT_TRUE(SameBits(decoded->points, kThreePoints));
     EXPECT_EQ(decoded->format, CloudFormat::kPcd);
 }
 
 TEST(PcdDecoderTest, DoubleCompressedWithExtraFieldsDecodes) {
     const auto decoded = DecodeCloud(ExtraFieldsCompressed());
     ASSERT_TRUE(decoded.ok()) << decoded.status();
-    EXPECT_TRUE(SameBits(decoded->points, kThree));
+    EXPECT_TRUE(SameBits(decoded->points, kThreePoints));
 }
 
 TEST(PcdDecoderTest, AsciiWithoutVersionAfterCommentsDecodes) {
@@ -100,7 +100,7 @@ TEST(PcdDecoderTest, AsciiWithoutVersionAfterCommentsDecodes) {
         "TYPE F F F F\r\nPOINTS 3\r\nDATA ascii\r\n1 2 3 4.2e6\r\n-4.5 5.25 -6 0\r\n"
         "\r\n0.125 0.001 1000000 0 extra\r\n");
     ASSERT_TRUE(decoded.ok()) << decoded.status();
-    EXPECT_TRUE(SameBits(decoded->points, kThree));
+    EXPECT_TRUE(SameBits(decoded->points, kThreePoints));
 }
 
 TEST(PcdDecoderTest, AsciiWithDoubleFieldsDecodes) {
@@ -108,7 +108,7 @@ TEST(PcdDecoderTest, AsciiWithDoubleFieldsDecodes) {
                                      "1 1 2 3 0 0 0 5 5\n2 -4.5 5.25 -6 0 0 0 5 5\n"
                                      "3 0.125 1e-3 1e6 0 0 0 5 5\n");
     ASSERT_TRUE(decoded.ok()) << decoded.status();
-    EXPECT_TRUE(SameBits(decoded->points, kThree));
+    EXPECT_TRUE(SameBits(decoded->points, kThreePoints));
 }
 
 TEST(PcdDecoderTest, OrganizedCloudWithNanRowsCountsThem) {
@@ -185,7 +185,7 @@ TEST(PcdDecoderTest, AbsurdPointCountIsRejectedBeforeAllocating) {
 }
 
 TEST(PcdDecoderTest, CompressedSizeBeyondDataIsRejected) {
-    std::string bytes = EncodePcd(kThree, PcdEncoding::kBinaryCompressed);
+    std::string bytes = EncodePcd(kThreePoints, PcdEncoding::kBinaryCompressed);
     const std::size_t body = BodyOffset(bytes);
     bytes.replace(body, 4, std::string("\xff\xff\x00\x00", 4));
     EXPECT_TRUE(IsInvalidWith(DecodeCloud(bytes), "compressed size 65535 but"));
@@ -218,7 +218,7 @@ TEST(PcdDecoderTest, CompressedBodyBeyondTheDecodeBudgetIsRejectedBeforeAllocati
 }
 
 TEST(PcdDecoderTest, UncompressedSizeMismatchIsRejected) {
-    std::string bytes = EncodePcd(kThree, PcdEncoding::kBinaryCompressed);
+    std::string bytes = EncodePcd(kThreePoints, PcdEncoding::kBinaryCompressed);
     bytes.replace(BodyOffset(bytes) + 4, 4, std::string("\x64\x00\x00\x00", 4));
     EXPECT_TRUE(IsInvalidWith(DecodeCloud(bytes), "uncompressed size 100 != POINTS * point size"));
 }
@@ -256,15 +256,15 @@ TEST(PcdDecoderTest, ViewpointIsTheSensorsPose) {
     const Pose sensor = GantrySensor();
     for (const PcdEncoding encoding :
          {PcdEncoding::kAscii, PcdEncoding::kBinary, PcdEncoding::kBinaryCompressed}) {
-        const auto decoded = DecodeCloud(EncodePcd(kThree, encoding, sensor));
+        const auto decoded = DecodeCloud(EncodePcd(kThreePoints, encoding, sensor));
         ASSERT_TRUE(decoded.ok()) << decoded.status();
         EXPECT_TRUE(decoded->sensor_pose.isApprox(sensor, 1e-12)) << static_cast<int>(encoding);
-        EXPECT_EQ(decoded->points, kThree);
+        EXPECT_EQ(decoded->points, kThreePoints);
     }
     // Absent, and in PLY: the sensor at the origin.
     EXPECT_TRUE(DecodeCloud(XyzHeader("POINTS 1\n", "ascii") + "1 2 3\n")
                     ->sensor_pose.isApprox(Pose::Identity(), 0.0));
-    EXPECT_TRUE(DecodeCloud(EncodePly(kThree))->sensor_pose.isApprox(Pose::Identity(), 0.0));
+    EXPECT_TRUE(DecodeCloud(EncodePly(kThreePoints))->sensor_pose.isApprox(Pose::Identity(), 0.0));
 }
 
 TEST(PcdDecoderTest, BadViewpointsAreRejected) {
@@ -333,14 +333,14 @@ TEST(PcdDecoderTest, PclWrittenFilesDecode) {
 TEST(PcdDecoderTest, PclAndWeAgreeOnTheViewpoint) {
     const Pose sensor = GantrySensor();
     const std::string path = TempPath("viewpoint.pcd");
-    std::ofstream(path, std::ios::binary) << EncodePcd(kThree, PcdEncoding::kBinary, sensor);
+    std::ofstream(path, std::ios::binary) << EncodePcd(kThreePoints, PcdEncoding::kBinary, sensor);
     pcl::PCLPointCloud2 blob;
     Eigen::Vector4f origin;
     Eigen::Quaternionf orientation;
     ASSERT_EQ(pcl::io::loadPCDFile(path, blob, origin, orientation), 0);
     EXPECT_TRUE(origin.head<3>().isApprox(sensor.translation().cast<float>(), 1e-6f));
     EXPECT_TRUE(orientation.toRotationMatrix().isApprox(sensor.linear().cast<float>(), 1e-6f));
-    pcl::PointCloud<pcl::PointXYZ> pcl_cloud = ToPcl(kThree);
+    pcl::PointCloud<pcl::PointXYZ> pcl_cloud = ToPcl(kThreePoints);
     pcl_cloud.sensor_origin_ = origin;
     pcl_cloud.sensor_orientation_ = orientation;
     ASSERT_EQ(pcl::io::savePCDFileBinary(path, pcl_cloud), 0);

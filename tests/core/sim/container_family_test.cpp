@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/common/angles.hpp"
 #include "core/sim/scene.hpp"
 #include "core/sim/scene_raycaster.hpp"
 #include "core/sim/soil_surface.hpp"
@@ -9,8 +10,6 @@
 
 namespace soilvol::sim {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Angle [deg] from the opening plane of the profile's first (front) and last (back) segments.
 std::pair<double, double> WallAngles(const ContainerGeometry& c) {

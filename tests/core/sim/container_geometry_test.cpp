@@ -4,6 +4,7 @@
 #include <map>
 #include <utility>
 
+#include "core/common/angles.hpp"
 #include "core/sim/scene.hpp"
 #include "core/sim/scene_raycaster.hpp"
 #include "core/sim/soil_surface.hpp"
@@ -12,7 +13,6 @@
 namespace soilvol::sim {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 const ContainerKind kAllKinds[] = {ContainerKind::kPaperBucket, ContainerKind::kExcavatorBucket,
                                    ContainerKind::kTruckBed};
 

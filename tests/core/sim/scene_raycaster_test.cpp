@@ -8,7 +8,7 @@
 namespace soilvol::sim {
 namespace {
 
-SoilSpec Fill(double height_m, double perturbation_m) {
+SoilSpec FillTo(double height_m, double perturbation_m) {
     SoilSpec soil;
     soil.fill_height_m = height_m;
     soil.perturbation_m = perturbation_m;
@@ -17,7 +17,7 @@ SoilSpec Fill(double height_m, double perturbation_m) {
 
 TEST(SceneRaycasterTest, CastHitFindsTheSameDistanceAsCast) {
     const ContainerGeometry bucket = MakeContainer(ContainerKind::kPaperBucket);
-    const SceneRaycaster raycaster(bucket, SoilSurface(bucket, Fill(0.3, 0.04), 3));
+    const SceneRaycaster raycaster(bucket, SoilSurface(bucket, FillTo(0.3, 0.04), 3));
     std::mt19937_64 rng(5);
     std::uniform_real_distribution<double> unit(-1.0, 1.0);
     const Eigen::Vector3d origin(0.8, -1.5, 1.6);
@@ -42,7 +42,7 @@ TEST(SceneRaycasterTest, NormalsOfFlatSoilFloorAndWallsAreAxes) {
     const ContainerGeometry bucket = MakeContainer(ContainerKind::kPaperBucket);
     const Eigen::Vector3d origin(0.0, -1.0, 2.0);
     // Flat soil 0.3 m deep: straight down onto z = -0.3.
-    const SceneRaycaster filled(bucket, SoilSurface(bucket, Fill(0.3, 0.0), 1));
+    const SceneRaycaster filled(bucket, SoilSurface(bucket, FillTo(0.3, 0.0), 1));
     const Eigen::Vector3d down = (Eigen::Vector3d(0.1, 0.05, -0.3) - origin).normalized();
     const std::optional<RayHit> soil = filled.CastHit(origin, down, 10.0);
     ASSERT_TRUE(soil.has_value());
@@ -50,7 +50,7 @@ TEST(SceneRaycasterTest, NormalsOfFlatSoilFloorAndWallsAreAxes) {
     EXPECT_NEAR((soil->normal - Eigen::Vector3d::UnitZ()).norm(), 0.0, 1e-9);
     EXPECT_NEAR((origin + soil->distance * down).z(), -0.3, 1e-4);
     // Empty bucket: the floor faces up, the far (+y) inner wall faces -y, towards the viewer.
-    const SceneRaycaster empty(bucket, SoilSurface(bucket, Fill(0.0, 0.0), 1));
+    const SceneRaycaster empty(bucket, SoilSurface(bucket, FillTo(0.0, 0.0), 1));
     const Eigen::Vector3d to_floor = (Eigen::Vector3d(0.0, 0.0, -0.6) - origin).normalized();
     const std::optional<RayHit> floor = empty.CastHit(origin, to_floor, 10.0);
     ASSERT_TRUE(floor.has_value());
@@ -66,7 +66,7 @@ TEST(SceneRaycasterTest, FlatSoilIsHitAtItsLevelFromEveryDirection) {
     // A flat surface gives a soil box of zero height; no ray may slip through it to the floor.
     for (const double fill : {0.1, 0.25, 0.3}) {
         const ContainerGeometry bucket = MakeContainer(ContainerKind::kPaperBucket);
-        const SceneRaycaster raycaster(bucket, SoilSurface(bucket, Fill(fill, 0.0), 1));
+        const SceneRaycaster raycaster(bucket, SoilSurface(bucket, FillTo(fill, 0.0), 1));
         std::mt19937_64 rng(3);
         std::uniform_real_distribution<double> unit(-1.0, 1.0);
         const Eigen::Vector3d origin(0.5, -0.8, 2.5);
@@ -83,7 +83,7 @@ TEST(SceneRaycasterTest, FlatSoilIsHitAtItsLevelFromEveryDirection) {
 
 TEST(SceneRaycasterTest, RayIntoTheSkyMisses) {
     const ContainerGeometry bucket = MakeContainer(ContainerKind::kPaperBucket);
-    const SceneRaycaster raycaster(bucket, SoilSurface(bucket, Fill(0.3, 0.02), 1));
+    const SceneRaycaster raycaster(bucket, SoilSurface(bucket, FillTo(0.3, 0.02), 1));
     EXPECT_FALSE(raycaster.CastHit({0.0, -1.0, 2.0}, Eigen::Vector3d::UnitZ(), 10.0).has_value());
 }
 

@@ -8,6 +8,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/common/angles.hpp"
 #include "core/common/timer.hpp"
 #include "core/sim/scene_raycaster.hpp"
 #include "core/sim/soil_surface.hpp"
@@ -15,8 +16,6 @@
 
 namespace soilvol::sim {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 SceneSpec NoiseFree(ContainerKind kind, double fill_m, double perturbation_m) {
     SceneSpec spec;

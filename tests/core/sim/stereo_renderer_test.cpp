@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "core/common/angles.hpp"
 #include "core/common/timer.hpp"
 #include "core/sim/pinhole_camera.hpp"
 #include "core/sim/scene_raycaster.hpp"
@@ -14,8 +15,6 @@
 
 namespace soilvol::sim {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 StereoRigSpec Rig(int width, int height) {
     StereoRigSpec rig;

@@ -18,8 +18,8 @@ namespace {
 
 using test::IsInvalidWith;
 
-constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNotANumber = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr double kBaselineM = 0.1;
 constexpr double kFocalPx = 554.0;
 
@@ -138,27 +138,27 @@ TEST(CalibrationFromParametersTest, EachInvalidFieldIsNamed) {
         {"image_height must be in [16, 8192], got 0", [](auto& p) { p.image_height = 0; }},
         {"left.fx must be positive and finite", [](auto& p) { p.left.fx = 0.0; }},
         {"left.fx must be positive and finite", [](auto& p) { p.left.fx = -554.0; }},
-        {"left.fx must be positive and finite", [](auto& p) { p.left.fx = kNan; }},
-        {"left.fy must be positive and finite", [](auto& p) { p.left.fy = kInf; }},
-        {"right.fx must be positive and finite", [](auto& p) { p.right.fx = kNan; }},
+        {"left.fx must be positive and finite", [](auto& p) { p.left.fx = kNotANumber; }},
+        {"left.fy must be positive and finite", [](auto& p) { p.left.fy = kInfinity; }},
+        {"right.fx must be positive and finite", [](auto& p) { p.right.fx = kNotANumber; }},
         {"right.fy must be positive and finite", [](auto& p) { p.right.fy = 0.0; }},
         {"left.cx must be inside the image [0, 640]", [](auto& p) { p.left.cx = -1.0; }},
         {"right.cx must be inside the image [0, 640]", [](auto& p) { p.right.cx = 700.0; }},
-        {"left.cy must be inside the image [0, 480]", [](auto& p) { p.left.cy = kNan; }},
+        {"left.cy must be inside the image [0, 480]", [](auto& p) { p.left.cy = kNotANumber; }},
         {"right.cy must be inside the image [0, 480]", [](auto& p) { p.right.cy = 481.0; }},
         {"left.distortion must have 0, 4, 5 or 8 coefficients, got 3",
          [](auto& p) { p.left.distortion.resize(3); }},
         {"right.distortion must have 0, 4, 5 or 8 coefficients, got 14",
          [](auto& p) { p.right.distortion.resize(14); }},
-        {"left.distortion[1] must be finite", [](auto& p) { p.left.distortion[1] = kNan; }},
-        {"right.distortion[3] must be finite", [](auto& p) { p.right.distortion[3] = -kInf; }},
+        {"left.distortion[1] must be finite", [](auto& p) { p.left.distortion[1] = kNotANumber; }},
+        {"right.distortion[3] must be finite", [](auto& p) { p.right.distortion[3] = -kInfinity; }},
         {"R_right_left is not a proper rotation (det=-1",
          [](auto& p) { p.R_right_left.col(0) *= -1.0; }},
         {"R_right_left is not a proper rotation", [](auto& p) { p.R_right_left *= 1.001; }},
         {"R_right_left is not a proper rotation", [](auto& p) { p.R_right_left(0, 1) += 1e-5; }},
-        {"R_right_left must be finite", [](auto& p) { p.R_right_left(2, 2) = kNan; }},
+        {"R_right_left must be finite", [](auto& p) { p.R_right_left(2, 2) = kNotANumber; }},
         {"t_right_left_m is zero", [](auto& p) { p.t_right_left_m.setZero(); }},
-        {"t_right_left_m must be finite", [](auto& p) { p.t_right_left_m.y() = kInf; }},
+        {"t_right_left_m must be finite", [](auto& p) { p.t_right_left_m.y() = kInfinity; }},
         // Found by fuzz_calibration_record: finite values whose norm overflows to infinity.
         {"t_right_left_m gives a baseline past 100 m",
          [](auto& p) { p.t_right_left_m << -0.1, -1.06e178, -1.06e178; }},

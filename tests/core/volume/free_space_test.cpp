@@ -9,10 +9,10 @@ namespace soilvol::volume {
 namespace {
 
 // A 1 x 1 m opening over a floor at -0.5 m; the sensor stands above the -y edge.
-const Polygon2d kOpening({{-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}});
+const Polygon2d kSquareOpening({{-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}});
 
 TEST(FreeSpaceTest, RaysBoundTheSurfaceFromAboveAlongTheirPath) {
-    const Grid grid = MakeGrid(kOpening, 0.1);
+    const Grid grid = MakeGrid(kSquareOpening, 0.1);
     WeightedCloud scan;
     scan.sensor = Eigen::Vector3d(0.0, -1.5, 1.0);
     // Returns on the floor's far half only; their rays pass over the near half.
@@ -37,7 +37,7 @@ TEST(FreeSpaceTest, RaysBoundTheSurfaceFromAboveAlongTheirPath) {
 }
 
 TEST(FreeSpaceTest, OneStrayReturnDoesNotLowerACeiling) {
-    const Grid grid = MakeGrid(kOpening, 0.1);
+    const Grid grid = MakeGrid(kSquareOpening, 0.1);
     WeightedCloud scan;
     scan.sensor = Eigen::Vector3d(0.0, 0.0, 2.0);
     scan.points.emplace_back(0.45, 0.0, -3.0);  // a return far below everything
@@ -46,7 +46,7 @@ TEST(FreeSpaceTest, OneStrayReturnDoesNotLowerACeiling) {
 }
 
 TEST(FreeSpaceTest, ScansAddTheirRays) {
-    const Grid grid = MakeGrid(kOpening, 0.1);
+    const Grid grid = MakeGrid(kSquareOpening, 0.1);
     WeightedCloud a, b;
     a.sensor = Eigen::Vector3d(0.0, -1.5, 1.0);
     b.sensor = Eigen::Vector3d(0.0, 1.5, 1.0);
