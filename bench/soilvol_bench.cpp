@@ -12,6 +12,7 @@
 #include "bench/stereo_trial.hpp"
 #include "bench/tables.hpp"
 #include "bench/trial.hpp"
+#include "core/common/allocator.hpp"
 #include "core/common/build_info.hpp"
 
 namespace {
@@ -116,6 +117,7 @@ int StereoDemo(std::ostream& out, soilvol::sim::ContainerKind kind, bool chessbo
 }  // namespace
 
 int main(int argc, char** argv) {
+    soilvol::KeepFreedMemoryForReuse();  // as soilvol-server does
     CLI::App app{"soilvol-bench: the paper's tables on simulated scenes, side by side"};
     app.set_version_flag("--version", soilvol::VersionLine("soilvol-bench"));
     app.require_subcommand(1);

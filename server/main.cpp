@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "CLI/CLI.hpp"
+#include "core/common/allocator.hpp"
 #include "core/common/build_info.hpp"
 #include "core/stereo/calibration.hpp"
 #include "server/base/logging.hpp"
@@ -189,6 +190,7 @@ void LogListening(const soilvol::server::Server& server,
 }  // namespace
 
 int main(int argc, char** argv) {
+    soilvol::KeepFreedMemoryForReuse();
     CLI::App app{"soilvol-server: volume of soil in containers, over gRPC and REST"};
     app.set_version_flag("--version", soilvol::VersionLine("soilvol-server"));
     soilvol::server::ServerOptions options;

@@ -16,6 +16,7 @@
 #include "core/cloud/outlier_filter.hpp"
 #include "core/cloud/preprocess.hpp"
 #include "core/cloud/voxel_grid.hpp"
+#include "core/common/allocator.hpp"
 #include "core/common/build_info.hpp"
 #include "core/io/cloud_codec.hpp"
 #include "core/model/container_model.hpp"
@@ -162,6 +163,7 @@ BENCHMARK(BM_Estimate)->Apply(Sizes);
 }  // namespace soilvol::bench
 
 int main(int argc, char** argv) {
+    soilvol::KeepFreedMemoryForReuse();  // as soilvol-server does
     if (argc == 2 && std::string_view(argv[1]) == "--version") {
         std::cout << soilvol::VersionLine("soilvol-microbench") << "\n";
         return 0;
