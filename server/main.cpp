@@ -45,6 +45,16 @@ void AddStorageFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
                    "Records older than this are removed")
         ->envname("SOILVOL_RECORDS_MAX_AGE_DAYS")
         ->capture_default_str();
+    app.add_option("--max-watches", o.max_watches,
+                   "Live estimate watches (gRPC WatchEstimates, SSE) at once; more get "
+                   "RESOURCE_EXHAUSTED / 429")
+        ->envname("SOILVOL_MAX_WATCHES")
+        ->capture_default_str();
+    app.add_option("--watch-heartbeat-seconds", o.watch_heartbeat_s,
+                   "A watch that got nothing for this long gets a heartbeat; a client that left "
+                   "is noticed by it")
+        ->envname("SOILVOL_WATCH_HEARTBEAT_SECONDS")
+        ->capture_default_str();
 }
 
 /// The worker pool, request sizes and registration warnings.

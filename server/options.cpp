@@ -53,6 +53,12 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (!(o.records_max_age_days > 0.0 && o.records_max_age_days <= 36500.0)) {
         return Invalid("records-max-age-days", "must be in (0, 36500]");
     }
+    if (o.max_watches < 1 || o.max_watches > 100000) {
+        return Invalid("max-watches", "must be in [1, 100000]");
+    }
+    if (!(o.watch_heartbeat_s >= 0.1 && o.watch_heartbeat_s <= 60.0)) {
+        return Invalid("watch-heartbeat-seconds", "must be in [0.1, 60]");
+    }
     if (o.workers < 0 || o.workers > 256) return Invalid("workers", "must be in [0, 256]");
     if (o.max_queue < 0 || o.max_queue > 100000) {
         return Invalid("max-queue", "must be in [0, 100000]");

@@ -19,6 +19,12 @@ struct ServerOptions {
     std::string records_url;
     long long records_max_per_container = 10000;  ///< retention: the newest this many ...
     double records_max_age_days = 90.0;           ///< ... and none older
+    /// Live estimate watches at once (WatchEstimates, the SSE route), each a stream and a few
+    /// KiB; beyond, RESOURCE_EXHAUSTED (429).
+    int max_watches = 2048;
+    /// A watch that got nothing for this long gets a heartbeat (SSE: a comment line), which
+    /// also tells a client that left from one that listens.
+    double watch_heartbeat_s = 1.0;
     int workers = 0;    ///< engine threads; 0 = one per CPU available (affinity, cgroup limit)
     int max_queue = 0;  ///< requests waiting for a worker; 0 = 4 x workers
     int max_message_mb = 64;  ///< largest gRPC message; REST bodies may be 4/3 larger (base64)

@@ -1,6 +1,7 @@
 #include "server/server.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <condition_variable>
 #include <mutex>
 
@@ -168,7 +169,10 @@ absl::Status OpenRecords(ServerParts& p) {
     recording.retention.max_age =
         std::chrono::seconds(static_cast<long long>(o.records_max_age_days * 86400.0));
     p.recorder = std::make_unique<EstimateRecorder>(*p.records, recording);
-    p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateFeed::Config{});
+    EstimateFeed::Config feed;
+    feed.max_watches = static_cast<std::size_t>(o.max_watches);
+    feed.heartbeat = std::chrono::milliseconds(std::lround(o.watch_heartbeat_s * 1000.0));
+    p.feed = std::make_unique<EstimateFeed>(*p.recorder, feed);
     p.metrics.SetRecordsProbe(
         p.records->kind(), [recorder = p.recorder.get(), feed = p.feed.get()] {
             const EstimateRecorder::Stats stats = recorder->stats();

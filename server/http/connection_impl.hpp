@@ -410,6 +410,21 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
                                      beast::error_code ec, std::size_t) {
                                      self->OnStreamWrite(ec, message->keep_alive());
                                  });
+        WatchForHangUp();
+    }
+
+    // A streaming client (an EventSource, curl -N) sends nothing while it listens, so the
+    // socket turning readable - its FIN, a TLS close_notify, a reset - means it left: the
+    // connection closes at once, and its watch ends at its next heartbeat, instead of after
+    // the writes into a gone client's socket buffer first fail. (A request pipelined behind a
+    // streamed response closes it too; no browser pipelines.)
+    void WatchForHangUp() {
+        const std::uint64_t stream = ++stream_serial_;
+        Lowest().socket().async_wait(tcp::socket::wait_read, [self = this->shared_from_this(),
+                                                              stream](beast::error_code ec) {
+            if (ec || stream != self->stream_serial_) return;  // the stream ended first
+            self->Close();
+        });
     }
 
     void QueueChunk(std::string chunk, bool last) {
@@ -456,6 +471,9 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
         stream_keep_alive_ = keep_alive;
         if (stream_done_) {
             stream_done_ = false;
+            ++stream_serial_;  // the hang-up watch is void; the next request may come
+            beast::error_code ignored;
+            Lowest().socket().cancel(ignored);
             if (!keep_alive) return Linger();
             version_ = 0;
             return WaitForRequest();
@@ -531,6 +549,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     bool stream_end_ = false;
     bool stream_done_ = false;
     bool stream_keep_alive_ = true;
+    std::uint64_t stream_serial_ = 0;  ///< bumped per stream and at its end (WatchForHangUp)
 };
 
 }  // namespace soilvol::server::http_detail

@@ -25,9 +25,9 @@ class EstimateFeed {
         std::chrono::milliseconds poll{250};
         /// A watch that got nothing for this long gets a heartbeat (Deliver(nullptr)): SSE
         /// sends a comment, and a departed client is noticed.
-        std::chrono::milliseconds heartbeat{15'000};
-        std::size_t max_watches = 256;
-        int batch = 200;  ///< records read per query
+        std::chrono::milliseconds heartbeat{1'000};
+        std::size_t max_watches = 2048;  ///< --max-watches
+        int batch = 200;                 ///< records read per query
     };
     /// Takes a record, or null for a heartbeat; false ends the watch (its client is gone or
     /// too slow).
