@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <string>
 #include <vector>
 
 #include "absl/strings/str_format.h"
@@ -253,26 +254,38 @@ constexpr const char* kHeader =
 std::string BudgetTable(int seeds, std::ostream& kv) {
     std::map<std::string, Row> by_family, by_noise;
     std::vector<std::string> family_order, noise_order;
-    for (const int scans : {1, 2, 0}) {  // 0: from the mesh
+    // Registration kinds: 1 or 2 empty scans, 0 the mesh; with the ToF camera of the families
+    // table (its own noise: not in the noise table).
+    struct Kind {
+        int scans;
+        bool tof;
+    };
+    Row unused_noise_row;
+    for (const Kind k :
+         {Kind{1, false}, Kind{2, false}, Kind{0, false}, Kind{1, true}, Kind{2, true}}) {
+        const int scans = k.scans;
         for (const sim::ContainerFamily family : sim::AllFamilies()) {
             const std::string name = sim::FamilyName(family);
-            const std::string kind = scans > 0 ? absl::StrFormat("%d empty", scans) : "mesh";
+            const std::string kind = (scans > 0 ? absl::StrFormat("%d empty", scans) : "mesh") +
+                                     std::string(k.tof ? ", ToF camera" : "");
             const std::string family_key = absl::StrFormat("%s | %s", name, kind);
             if (!by_family.count(family_key)) family_order.push_back(family_key);
             Row& row = by_family[family_key];
             for (int seed = 1; seed <= seeds; ++seed) {
                 Setup setup = FamilySetup(family, seed, std::max(scans, 1));
                 setup.from_mesh = scans == 0;
+                if (k.tof) setup.tof_camera = sim::TypicalTofCamera();
                 const std::string noise_key =
                     absl::StrFormat("%.0f cm | %s", 100.0 * setup.sensor.range_noise_sigma_m, kind);
-                if (!by_noise.count(noise_key)) noise_order.push_back(noise_key);
-                Row& noise_row = by_noise[noise_key];
+                if (!k.tof && !by_noise.count(noise_key)) noise_order.push_back(noise_key);
+                Row& noise_row = k.tof ? unused_noise_row : by_noise[noise_key];
                 const RegisteredModel reg = RegisterEmpty(setup, static_cast<uint64_t>(seed));
                 if (!reg.model.ok()) {
                     row.register_failures += static_cast<int>(kFillShares.size());
                     noise_row.register_failures += static_cast<int>(kFillShares.size());
-                    kv << "budget family=" << name << " scans=" << scans << " seed=" << seed
-                       << " register_error=" << reg.model.status().message() << "\n";
+                    kv << "budget family=" << name << (k.tof ? "-tof" : "") << " scans=" << scans
+                       << " seed=" << seed << " register_error=" << reg.model.status().message()
+                       << "\n";
                     continue;
                 }
                 const double capacity = 100.0 *
@@ -289,8 +302,8 @@ std::string BudgetTable(int seeds, std::ostream& kv) {
                     const sim::Scene scene =
                         FilledScan(setup, spec.fill_height_m, static_cast<uint64_t>(seed), f);
                     const Split s = SplitError(reg, geometry, soil, scene);
-                    KvLine(kv, name, scans, seed, kFillShares[f], setup.sensor.range_noise_sigma_m,
-                           s);
+                    KvLine(kv, k.tof ? name + "-tof" : name, scans, seed, kFillShares[f],
+                           setup.sensor.range_noise_sigma_m, s);
                     for (Row* r : {&row, &noise_row}) {
                         r->splits.push_back(s);
                         if (s.refused) ++r->refused;
