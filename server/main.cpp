@@ -55,6 +55,11 @@ void AddStorageFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
                    "is noticed by it")
         ->envname("SOILVOL_WATCH_HEARTBEAT_SECONDS")
         ->capture_default_str();
+    app.add_option("--metrics-max-containers", o.metrics_max_containers,
+                   "Containers with a label of their own on /metrics' per-container figures; "
+                   "the rest are summed as container=\"_other\"")
+        ->envname("SOILVOL_METRICS_MAX_CONTAINERS")
+        ->capture_default_str();
 }
 
 /// The worker pool, request sizes and registration warnings.

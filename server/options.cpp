@@ -59,6 +59,9 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (!(o.watch_heartbeat_s >= 0.1 && o.watch_heartbeat_s <= 60.0)) {
         return Invalid("watch-heartbeat-seconds", "must be in [0.1, 60]");
     }
+    if (o.metrics_max_containers < 1 || o.metrics_max_containers > 10000) {
+        return Invalid("metrics-max-containers", "must be in [1, 10000]");
+    }
     if (o.workers < 0 || o.workers > 256) return Invalid("workers", "must be in [0, 256]");
     if (o.max_queue < 0 || o.max_queue > 100000) {
         return Invalid("max-queue", "must be in [0, 100000]");

@@ -25,6 +25,9 @@ struct ServerOptions {
     /// A watch that got nothing for this long gets a heartbeat (SSE: a comment line), which
     /// also tells a client that left from one that listens.
     double watch_heartbeat_s = 1.0;
+    /// Containers with their own label on /metrics' per-container figures; the rest are
+    /// summed under container="_other", so that a fleet's growth cannot grow the scrape.
+    int metrics_max_containers = 200;
     int workers = 0;    ///< engine threads; 0 = one per CPU available (affinity, cgroup limit)
     int max_queue = 0;  ///< requests waiting for a worker; 0 = 4 x workers
     int max_message_mb = 64;  ///< largest gRPC message; REST bodies may be 4/3 larger (base64)

@@ -32,6 +32,9 @@
 namespace soilvol::server {
 
 struct ServerParts {
+    explicit ServerParts(ServerOptions resolved)
+        : options(std::move(resolved)), metrics(options.metrics_max_containers) {}
+
     ServerOptions options;
     std::unique_ptr<Authenticator> authenticator;
     std::unique_ptr<EntryStore> store;
@@ -273,8 +276,7 @@ absl::Status StartListening(ServerParts& p) {
 
 absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOptions& raw) {
     SOILVOL_RETURN_IF_ERROR(ValidateOptions(raw));
-    auto parts = std::make_unique<ServerParts>();
-    parts->options = ResolveOptions(raw);
+    auto parts = std::make_unique<ServerParts>(ResolveOptions(raw));
     const google::protobuf::ServiceDescriptor* api =
         google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(
             "soilvol.v1.SoilVolume");

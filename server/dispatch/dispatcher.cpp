@@ -121,6 +121,11 @@ void Dispatcher::Finish(const CallContext& context, const CallRecord& record,
     metrics_.RecordRequest(context.method, context.transport, status.code(), total_ms / 1000.0);
     if (record.queue_ms > 0.0) metrics_.RecordStage("queue", record.queue_ms / 1000.0);
     for (const auto& [stage, ms] : record.stages_ms) metrics_.RecordStage(stage, ms / 1000.0);
+    if (status.ok() && record.measured) {
+        const CallRecord::Measured& m = *record.measured;
+        metrics_.RecordEstimate(m.container_id, m.load_status, m.volume_m3, m.bank_volume_m3,
+                                m.mass_kg);
+    }
     const LogLevel level = status.ok()                           ? LogLevel::kInfo
                            : HttpStatusFor(status.code()) >= 500 ? LogLevel::kError
                                                                  : LogLevel::kWarn;

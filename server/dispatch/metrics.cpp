@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <mutex>
+#include <set>
+#include <vector>
 
 #include "core/common/build_info.hpp"
 #include "prometheus/counter.h"
@@ -9,6 +11,7 @@
 #include "prometheus/histogram.h"
 #include "prometheus/registry.h"
 #include "prometheus/text_serializer.h"
+#include "server/base/process_stats.hpp"
 #include "server/base/status_map.hpp"
 
 namespace soilvol::server {
@@ -21,9 +24,45 @@ prometheus::Histogram::BucketBoundaries LatencyBuckets() {
     return buckets;
 }
 
+prometheus::MetricFamily OneValue(const std::string& name, const std::string& help,
+                                  prometheus::MetricType type, double value) {
+    prometheus::ClientMetric metric;
+    if (type == prometheus::MetricType::Counter) {
+        metric.counter.value = value;
+    } else {
+        metric.gauge.value = value;
+    }
+    prometheus::MetricFamily family;
+    family.name = name;
+    family.help = help;
+    family.type = type;
+    family.metric.push_back(metric);
+    return family;
+}
+
+// Prometheus's process_* names (client libraries' process collector), from /proc.
+void AppendProcessFamilies(const ProcessStats& s, std::vector<prometheus::MetricFamily>& out) {
+    using prometheus::MetricType;
+    out.push_back(OneValue("process_cpu_seconds_total", "Total user and system CPU time spent",
+                           MetricType::Counter, s.cpu_seconds));
+    out.push_back(OneValue("process_resident_memory_bytes", "Resident memory size in bytes",
+                           MetricType::Gauge, s.resident_bytes));
+    out.push_back(OneValue("process_virtual_memory_bytes", "Virtual memory size in bytes",
+                           MetricType::Gauge, s.virtual_bytes));
+    out.push_back(OneValue("process_start_time_seconds",
+                           "Start time of the process since the Unix epoch in seconds",
+                           MetricType::Gauge, s.start_time_s));
+    out.push_back(OneValue("process_open_fds", "Number of open file descriptors", MetricType::Gauge,
+                           s.open_fds));
+    out.push_back(OneValue("process_max_fds", "Maximum number of open file descriptors",
+                           MetricType::Gauge, s.max_fds));
+}
+
 }  // namespace
 
 struct Metrics::Impl {
+    explicit Impl(int max_containers_) : max_containers(max_containers_) {}
+
     std::shared_ptr<prometheus::Registry> registry = std::make_shared<prometheus::Registry>();
     prometheus::Family<prometheus::Counter>& requests =
         prometheus::BuildCounter()
@@ -54,6 +93,40 @@ struct Metrics::Impl {
                                         .Add({{"version", GetBuildInfo().version},
                                               {"revision", GetBuildInfo().revision},
                                               {"build_type", GetBuildInfo().build_type}});
+
+    prometheus::Family<prometheus::Counter>& estimates =
+        prometheus::BuildCounter()
+            .Name("soilvol_estimates_total")
+            .Help("Estimates answered, by container and load status against its targets")
+            .Register(*registry);
+    prometheus::Family<prometheus::Counter>& volume =
+        prometheus::BuildCounter()
+            .Name("soilvol_estimated_volume_cubic_meters_total")
+            .Help("Loose volume of the answered estimates, by container")
+            .Register(*registry);
+    prometheus::Family<prometheus::Counter>& bank_volume =
+        prometheus::BuildCounter()
+            .Name("soilvol_estimated_bank_volume_cubic_meters_total")
+            .Help("In-place (bank) volume of the answered estimates, by container")
+            .Register(*registry);
+    prometheus::Family<prometheus::Counter>& mass =
+        prometheus::BuildCounter()
+            .Name("soilvol_estimated_mass_kilograms_total")
+            .Help("Mass of the answered estimates whose material has a density, by container")
+            .Register(*registry);
+    const int max_containers;
+    std::mutex containers_mutex;
+    std::set<std::string> labelled;  ///< the containers with a label of their own
+
+    /// `container`, or "_other" once max_containers others have a label.
+    std::string ContainerLabel(std::string_view container) {
+        std::lock_guard<std::mutex> lock(containers_mutex);
+        std::string name(container);
+        if (labelled.count(name) != 0) return name;
+        if (labelled.size() >= static_cast<std::size_t>(max_containers)) return "_other";
+        labelled.insert(name);
+        return name;
+    }
 
     std::function<Metrics::RecordFigures()> records_probe;
     std::mutex records_mutex;             // one scrape at a time moves the counters
@@ -94,7 +167,9 @@ struct Metrics::Impl {
     }
 };
 
-Metrics::Metrics() : impl_(std::make_unique<Impl>()) { impl_->build_info.Set(1.0); }
+Metrics::Metrics(int max_containers) : impl_(std::make_unique<Impl>(max_containers)) {
+    impl_->build_info.Set(1.0);
+}
 
 Metrics::~Metrics() = default;
 
@@ -122,6 +197,18 @@ void Metrics::SetWorkers(int workers, int max_queue) {
     impl_->max_queue.Set(max_queue);
 }
 
+void Metrics::RecordEstimate(std::string_view container, std::string_view load_status,
+                             double volume_m3, double bank_volume_m3,
+                             std::optional<double> mass_kg) {
+    Impl& m = *impl_;
+    const std::string label = m.ContainerLabel(container);
+    m.estimates.Add({{"container", label}, {"load_status", std::string(load_status)}}).Increment();
+    // Counters only grow: a negative volume (noise around an empty container) counts as 0.
+    m.volume.Add({{"container", label}}).Increment(std::max(volume_m3, 0.0));
+    m.bank_volume.Add({{"container", label}}).Increment(std::max(bank_volume_m3, 0.0));
+    if (mass_kg) m.mass.Add({{"container", label}}).Increment(std::max(*mass_kg, 0.0));
+}
+
 void Metrics::SetRecordsProbe(std::string store, std::function<RecordFigures()> probe) {
     Impl& m = *impl_;
     m.records_written = &m.MakeCounter("soilvol_records_written_total",
@@ -142,7 +229,9 @@ void Metrics::SetRecordsProbe(std::string store, std::function<RecordFigures()> 
 
 std::string Metrics::Serialize() const {
     impl_->ReadRecords();
-    return prometheus::TextSerializer().Serialize(impl_->registry->Collect());
+    std::vector<prometheus::MetricFamily> families = impl_->registry->Collect();
+    AppendProcessFamilies(ReadProcessStats(), families);
+    return prometheus::TextSerializer().Serialize(families);
 }
 
 }  // namespace soilvol::server

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -14,7 +15,9 @@ namespace soilvol::server {
 /// Serialize() on /metrics). Thread-safe.
 class Metrics {
   public:
-    Metrics();
+    /// `max_containers`: how many containers get their own label on the per-container
+    /// figures; the rest are summed under container="_other" (a bounded label set).
+    explicit Metrics(int max_containers = 200);
     ~Metrics();
     Metrics(const Metrics&) = delete;
     Metrics& operator=(const Metrics&) = delete;
@@ -30,6 +33,13 @@ class Metrics {
     void SetLoad(double in_flight, double queued);
     void SetWorkers(int workers, int max_queue);
 
+    /// An answered estimate: soilvol_estimates_total{container, load_status},
+    /// soilvol_estimated_volume_cubic_meters_total{container} (loose) and
+    /// soilvol_estimated_bank_volume_cubic_meters_total{container}, and
+    /// soilvol_estimated_mass_kilograms_total{container} when the density is known.
+    void RecordEstimate(std::string_view container, std::string_view load_status, double volume_m3,
+                        double bank_volume_m3, std::optional<double> mass_kg);
+
     /// What the estimate records did since the server started, read at each scrape.
     struct RecordFigures {
         std::uint64_t written = 0, batches = 0, failures = 0, pruned = 0;
@@ -42,7 +52,8 @@ class Metrics {
     /// from `probe` at each Serialize. Set once, before the first scrape.
     void SetRecordsProbe(std::string store, std::function<RecordFigures()> probe);
 
-    /// The text exposition format.
+    /// The text exposition format, with the process_* figures of this process (CPU seconds,
+    /// resident and virtual memory, open and most file descriptors, start time) read now.
     std::string Serialize() const;
 
   private:

@@ -19,6 +19,15 @@ struct CallRecord {
     StopToken stop;
     std::vector<std::pair<std::string, std::string>> ids;  ///< ("container", "bucket-7"), ...
     std::optional<double> volume_m3;
+    /// Set by EstimateVolume when it answers: what the per-container metrics count.
+    struct Measured {
+        std::string container_id;
+        std::string load_status;  ///< "loaded_ok", "overloaded", ... ("loaded": no targets)
+        double volume_m3 = 0.0;
+        double bank_volume_m3 = 0.0;
+        std::optional<double> mass_kg;  ///< with the material's density
+    };
+    std::optional<Measured> measured;
     std::vector<std::pair<std::string, double>> stages_ms;  ///< ("align", 10.2), ...
     /// Set by a handler whose answer also waits on something that needs no worker (its
     /// record's commit): once the handler returned OK, the dispatcher calls it with the

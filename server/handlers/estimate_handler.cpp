@@ -2,6 +2,7 @@
 #include "core/common/status_macros.hpp"
 #include "core/common/timer.hpp"
 #include "core/pipeline/estimate_policy.hpp"
+#include "core/volume/load_status.hpp"
 #include "proto/convert/proto_convert.hpp"
 #include "server/handlers/soilvol_handlers.hpp"
 
@@ -101,6 +102,25 @@ void RecordTimings(CallRecord& record, double handler_ms, v1::Timings* timings) 
     }
 }
 
+// The load status as /metrics labels it.
+const char* LoadStatusLabel(volume::LoadStatus status) {
+    switch (status) {
+        case volume::LoadStatus::kEmpty:
+            return "empty";
+        case volume::LoadStatus::kCarryback:
+            return "carryback";
+        case volume::LoadStatus::kUnderloaded:
+            return "underloaded";
+        case volume::LoadStatus::kLoadedOk:
+            return "loaded_ok";
+        case volume::LoadStatus::kOverloaded:
+            return "overloaded";
+        case volume::LoadStatus::kLoaded:
+            return "loaded";
+    }
+    return "loaded";
+}
+
 }  // namespace
 
 absl::StatusOr<pipeline::VolumeEstimate> SoilVolumeHandlers::RunEstimate(
@@ -157,11 +177,16 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     response->set_container_id(request.container_id());
     response->set_request_id(request.request_id());
     response->set_method(MethodOf(config.method));
-    ToProto(volume::AssessLoad(estimate.volume_m3, estimate.uncertainty_m3, rules.material,
-                               rules.targets, options.material_density_kg_m3),
-            response);
+    const volume::LoadAssessment load =
+        volume::AssessLoad(estimate.volume_m3, estimate.uncertainty_m3, rules.material,
+                           rules.targets, options.material_density_kg_m3);
+    ToProto(load, response);
     RecordTimings(record, timer.Lap(), response->mutable_timings());
     record.volume_m3 = estimate.volume_m3;
+    record.measured = CallRecord::Measured{
+        request.container_id(), LoadStatusLabel(load.status), estimate.volume_m3,
+        response->load().bank_volume_m3(),
+        response->has_mass_kg() ? std::optional<double>(response->mass_kg()) : std::nullopt};
     RecordEstimate(request, response, record);
     if (request.omit_heightmap()) response->clear_heightmap();
     return absl::OkStatus();

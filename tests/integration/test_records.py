@@ -282,9 +282,8 @@ class RecordsContract:
         before = figures()
         cid = self.prefix + "-m"
         self.register(cid)
-        for fill in (0.1, 0.2):
-            self.estimate(cid, fill, omit_heightmap=True)
-        self.estimate(cid, 0.2, skip_record=True)
+        answers = [self.estimate(cid, fill, omit_heightmap=True) for fill in (0.1, 0.2)]
+        answers.append(self.estimate(cid, 0.2, skip_record=True))
         events = SseReader(self.server.http_port, f"/v1/estimates:watch?containerId={cid}")
         self.assertEqual(events.status, 200)
         after = figures()
@@ -298,6 +297,23 @@ class RecordsContract:
         self.assertEqual(after["soilvol_records_queued"], 0)  # each answer waited for its commit
         self.assertEqual(after["soilvol_estimate_watches"], before["soilvol_estimate_watches"] + 1)
         events.close()
+        # The business figures count every answered estimate, recorded or not, per container.
+        self.assertEqual(server_metric(self.server, "soilvol_estimates_total", container=cid),
+                         len(answers))
+        self.assertAlmostEqual(
+            server_metric(self.server, "soilvol_estimated_volume_cubic_meters_total",
+                          container=cid),
+            sum(max(a.volume_m3, 0.0) for a in answers), places=9)
+        self.assertAlmostEqual(
+            server_metric(self.server, "soilvol_estimated_bank_volume_cubic_meters_total",
+                          container=cid),
+            sum(max(a.load.bank_volume_m3, 0.0) for a in answers), places=9)
+        # The process's own figures, as every Prometheus client library names them.
+        for name in ("process_cpu_seconds_total", "process_resident_memory_bytes",
+                     "process_open_fds", "process_max_fds", "process_start_time_seconds"):
+            self.assertGreater(server_metric(self.server, name), 0, name)
+        self.assertLess(abs(server_metric(self.server, "process_start_time_seconds")
+                            - time.time()), 3600)
 
     def test_answered_estimates_survive_kill_9(self):
         cid = self.prefix + "-k"
