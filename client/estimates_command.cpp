@@ -17,6 +17,7 @@ namespace {
 
 struct ListOptions {
     std::string container = "-";
+    std::string registration;  ///< "" the container's current one, "-" every one
     std::string since, until;  ///< RFC 3339
     int limit = 100;
     bool full = false;
@@ -34,6 +35,7 @@ absl::Status ParseTime(const std::string& text, const char* flag,
 int RunList(const ListOptions& options, const GlobalOptions& global) {
     v1::ListEstimatesRequest request;
     request.set_container_id(options.container);
+    request.set_registration_id(options.registration);
     request.set_view(options.full ? v1::ESTIMATE_VIEW_FULL : v1::ESTIMATE_VIEW_BASIC);
     if (!options.since.empty()) {
         if (absl::Status s = ParseTime(options.since, "--since", request.mutable_start_time());
@@ -121,6 +123,9 @@ void AddEstimatesCommand(CLI::App& app, const GlobalOptions& global, int* exit_c
     auto* list_command = group->add_subcommand("list", "records, newest first");
     list_command->add_option("--container", list->container, "container id; - for every one")
         ->capture_default_str();
+    list_command->add_option("--registration", list->registration,
+                             "a registration id; - for every one (default: the container's "
+                             "current registration)");
     list_command->add_option("--since", list->since, "from this RFC 3339 time");
     list_command->add_option("--until", list->until, "before this RFC 3339 time");
     list_command->add_option("--limit", list->limit, "at most this many")

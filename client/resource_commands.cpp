@@ -28,7 +28,13 @@ grpc::Status ListAll(Connection& connection, Call call, Response* all) {
     return grpc::Status::OK;
 }
 
-int RunContainers(Action action, const std::string& id, const GlobalOptions& global) {
+/// Flags of `<noun> delete`.
+struct DeleteFlags {
+    bool purge_records = false;  ///< containers: their estimate records too
+};
+
+int RunContainers(Action action, const std::string& id, const DeleteFlags& flags,
+                  const GlobalOptions& global) {
     Connection connection(global);
     if (!connection.ok()) return kExitUsage;
     const auto context = connection.NewContext();
@@ -52,6 +58,7 @@ int RunContainers(Action action, const std::string& id, const GlobalOptions& glo
     } else {
         v1::DeleteContainerRequest request;
         request.set_container_id(id);
+        request.set_purge_records(flags.purge_records);
         v1::DeleteContainerResponse deleted;
         status = connection.Soil().DeleteContainer(context.get(), request, &deleted);
         if (status.ok() && global.json) PrintJson(deleted, std::cout);
@@ -60,7 +67,8 @@ int RunContainers(Action action, const std::string& id, const GlobalOptions& glo
     return status.ok() ? kExitOk : ReportRpcError(status);
 }
 
-int RunCalibrations(Action action, const std::string& id, const GlobalOptions& global) {
+int RunCalibrations(Action action, const std::string& id, const DeleteFlags&,
+                    const GlobalOptions& global) {
     Connection connection(global);
     if (!connection.ok()) return kExitUsage;
     const auto context = connection.NewContext();
@@ -132,23 +140,28 @@ void AddUpdateCommand(CLI::App& containers, const GlobalOptions& global, int* ex
     });
 }
 
-using Runner = int (*)(Action, const std::string&, const GlobalOptions&);
+using Runner = int (*)(Action, const std::string&, const DeleteFlags&, const GlobalOptions&);
 
 // `<noun> list | get ID | delete ID`.
 void AddResource(CLI::App& app, const std::string& noun, const std::string& singular, Runner run,
-                 const GlobalOptions& global, int* exit_code) {
+                 bool has_records, const GlobalOptions& global, int* exit_code) {
     auto* group = app.add_subcommand(noun, "list, show or delete " + noun);
     group->require_subcommand(1);
     group->add_subcommand("list", "list every " + singular)->callback([run, &global, exit_code] {
-        *exit_code = run(Action::kList, "", global);
+        *exit_code = run(Action::kList, "", DeleteFlags{}, global);
     });
     for (const auto& [name, action] :
          {std::pair{"get", Action::kGet}, std::pair{"delete", Action::kDelete}}) {
         auto id = std::make_shared<std::string>();
+        auto flags = std::make_shared<DeleteFlags>();
         auto* command = group->add_subcommand(name, std::string(name) + " one " + singular);
         command->add_option("id", *id, singular + " id")->required();
-        command->callback([run, action = action, id, &global, exit_code] {
-            *exit_code = run(action, *id, global);
+        if (action == Action::kDelete && has_records) {
+            command->add_flag("--purge-records", flags->purge_records,
+                              "also delete its estimate records (kept by default)");
+        }
+        command->callback([run, action = action, id, flags, &global, exit_code] {
+            *exit_code = run(action, *id, *flags, global);
         });
     }
 }
@@ -156,9 +169,9 @@ void AddResource(CLI::App& app, const std::string& noun, const std::string& sing
 }  // namespace
 
 void AddResourceCommands(CLI::App& app, const GlobalOptions& global, int* exit_code) {
-    AddResource(app, "containers", "container", RunContainers, global, exit_code);
+    AddResource(app, "containers", "container", RunContainers, true, global, exit_code);
     AddUpdateCommand(*app.get_subcommand("containers"), global, exit_code);
-    AddResource(app, "calibrations", "calibration", RunCalibrations, global, exit_code);
+    AddResource(app, "calibrations", "calibration", RunCalibrations, false, global, exit_code);
 }
 
 }  // namespace soilvol::client

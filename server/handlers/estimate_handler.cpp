@@ -176,6 +176,7 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     }
     response->set_container_id(request.container_id());
     response->set_request_id(request.request_id());
+    response->set_registration_id(container->info.registration_id());
     response->set_method(MethodOf(config.method));
     const volume::LoadAssessment load =
         volume::AssessLoad(estimate.volume_m3, estimate.uncertainty_m3, rules.material,

@@ -56,6 +56,7 @@ void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request
     row.container_id = request.container_id();
     row.create_time_us = TimeUtil::TimestampToMicroseconds(kept.create_time());
     row.request_id = request.request_id();
+    row.registration_id = response->registration_id();
     row.payload = kept.SerializeAsString();
     // The dispatcher hands the completion over once the handler returned, so the response
     // is no longer written on the worker when the commit sets its id.
@@ -87,6 +88,21 @@ absl::Status SoilVolumeHandlers::GetEstimate(const v1::GetEstimateRequest& reque
     return FromRecord(*row, request.view() != v1::ESTIMATE_VIEW_BASIC, response);
 }
 
+absl::StatusOr<std::string> SoilVolumeHandlers::RegistrationFilter(
+    const v1::ListEstimatesRequest& request) {
+    const std::string& wanted = request.registration_id();
+    if (wanted == "-") return std::string();
+    if (!wanted.empty()) {
+        SOILVOL_RETURN_IF_ERROR(ValidateId(wanted, "registration_id"));
+        return wanted;
+    }
+    if (request.container_id() == "-") return std::string();
+    const auto container = LoadContainer(request.container_id(), "container_id");
+    if (absl::IsNotFound(container.status())) return std::string();  // deleted: all its records
+    SOILVOL_RETURN_IF_ERROR(container.status());
+    return (*container)->info.registration_id();
+}
+
 absl::Status SoilVolumeHandlers::ListEstimates(const v1::ListEstimatesRequest& request,
                                                v1::ListEstimatesResponse* response, CallRecord&) {
     SOILVOL_ASSIGN_OR_RETURN(EstimateRecorder * recorder, Recorder());
@@ -95,6 +111,7 @@ absl::Status SoilVolumeHandlers::ListEstimates(const v1::ListEstimatesRequest& r
         SOILVOL_RETURN_IF_ERROR(ValidateId(request.container_id(), "container_id"));
         query.container_id = request.container_id();
     }
+    SOILVOL_ASSIGN_OR_RETURN(query.registration_id, RegistrationFilter(request));
     SOILVOL_ASSIGN_OR_RETURN(const int size, PageSizeOf(request.page_size()));
     SOILVOL_ASSIGN_OR_RETURN(query.before_id, ParseRecordPageToken(request.page_token()));
     if (request.has_start_time()) {

@@ -262,6 +262,7 @@ absl::Status SoilVolumeHandlers::RegisterContainer(const v1::RegisterContainerRe
         record.stages_ms.push_back({"register", timer.Lap()});
         ToProto(model, response);
         response->set_container_id(id);
+        response->set_registration_id(NewEtag());  // 64 random bits, as an etag
         if (request.has_max_range_m()) response->set_max_range_m(request.max_range_m());
         *response->mutable_create_time() = NowTimestamp();
         *response->mutable_update_time() = response->create_time();

@@ -322,8 +322,25 @@ absl::Status SoilVolumeHandlers::ListContainers(const v1::ListContainersRequest&
 absl::Status SoilVolumeHandlers::DeleteContainer(const v1::DeleteContainerRequest& request,
                                                  v1::DeleteContainerResponse*, CallRecord& record) {
     record.ids.push_back({"container", request.container_id()});
-    return DeleteEntry(EntryKind::kContainer, request.container_id(), "container_id",
-                       request.etag());
+    const absl::Status deleted =
+        DeleteEntry(EntryKind::kContainer, request.container_id(), "container_id", request.etag());
+    // A container already gone still has its records purged (a retry after a failed purge);
+    // the answer stays NOT_FOUND.
+    const bool purge = request.purge_records() && recorder_ != nullptr &&
+                       (deleted.ok() || absl::IsNotFound(deleted));
+    if (!purge) return deleted;
+    const absl::StatusOr<std::int64_t> purged =
+        recorder_->store().DeleteContainer(request.container_id());
+    if (!purged.ok()) {
+        return absl::UnavailableError(absl::StrCat(
+            "container '", request.container_id(),
+            "': its estimate records were not purged (retry: a deleted container's records are "
+            "purged too): ",
+            purged.status().message()));
+    }
+    if (!deleted.ok()) return deleted;
+    record.ids.push_back({"purged_records", absl::StrCat(*purged)});
+    return absl::OkStatus();
 }
 
 absl::Status SoilVolumeHandlers::GetServerInfo(const v1::GetServerInfoRequest&,

@@ -181,6 +181,8 @@ class SoilVolumeHandlers {
     /// record is committed (CallRecord::finish_later; the worker does not wait for it).
     void RecordEstimate(const v1::EstimateVolumeRequest& request,
                         v1::EstimateVolumeResponse* response, CallRecord& record);
+    /// The registration ListEstimates shows (RecordQuery::registration_id; "" = every one).
+    absl::StatusOr<std::string> RegistrationFilter(const v1::ListEstimatesRequest& request);
     /// The recorder, or FailedPrecondition when records are off.
     absl::StatusOr<EstimateRecorder*> Recorder() const;
 

@@ -19,6 +19,9 @@ CREATE TABLE IF NOT EXISTS soilvol_estimates (
 CREATE INDEX IF NOT EXISTS soilvol_estimates_by_container
     ON soilvol_estimates (container_id, id);
 CREATE INDEX IF NOT EXISTS soilvol_estimates_by_time ON soilvol_estimates (create_time_us);
+ALTER TABLE soilvol_estimates ADD COLUMN IF NOT EXISTS registration_id TEXT NOT NULL DEFAULT '';
+CREATE INDEX IF NOT EXISTS soilvol_estimates_by_registration
+    ON soilvol_estimates (container_id, registration_id, id);
 )sql";
 
 /// Taken by every inserting transaction: ids are drawn and committed one transaction at a
@@ -42,7 +45,8 @@ EstimateRecord RecordFrom(const pqxx::row& row, bool with_payload) {
     record.container_id = row[1].as<std::string>();
     record.create_time_us = row[2].as<std::int64_t>();
     record.request_id = row[3].as<std::string>();
-    if (with_payload) record.payload = pqxx::binarystring(row[4]).str();
+    record.registration_id = row[4].as<std::string>();
+    if (with_payload) record.payload = pqxx::binarystring(row[5]).str();
     return record;
 }
 
@@ -61,8 +65,9 @@ class PostgresRecordStore final : public RecordStore {
                 const pqxx::binarystring payload(record.payload.data(), record.payload.size());
                 const pqxx::result id = work.exec_params(
                     "INSERT INTO soilvol_estimates (container_id, create_time_us, request_id, "
-                    "payload) VALUES ($1, $2, $3, $4) RETURNING id",
-                    record.container_id, record.create_time_us, record.request_id, payload);
+                    "payload, registration_id) VALUES ($1, $2, $3, $4, $5) RETURNING id",
+                    record.container_id, record.create_time_us, record.request_id, payload,
+                    record.registration_id);
                 record.id = id[0][0].as<std::int64_t>();
             }
         });
@@ -76,8 +81,8 @@ class PostgresRecordStore final : public RecordStore {
         std::optional<EstimateRecord> found;
         SOILVOL_RETURN_IF_ERROR(Run("get", [&](pqxx::work& work) {
             const pqxx::result rows = work.exec_params(
-                "SELECT id, container_id, create_time_us, request_id, payload FROM "
-                "soilvol_estimates WHERE id = $1 AND container_id = $2",
+                "SELECT id, container_id, create_time_us, request_id, registration_id, payload "
+                "FROM soilvol_estimates WHERE id = $1 AND container_id = $2",
                 id, container_id);
             if (!rows.empty()) found = RecordFrom(rows[0], true);
         }));
@@ -91,10 +96,11 @@ class PostgresRecordStore final : public RecordStore {
     absl::StatusOr<std::vector<EstimateRecord>> List(const RecordQuery& query) override {
         const bool ascending = query.after_id.has_value();
         const std::string sql = absl::StrCat(
-            "SELECT id, container_id, create_time_us, request_id",
+            "SELECT id, container_id, create_time_us, request_id, registration_id",
             query.with_payload ? ", payload" : "",
             " FROM soilvol_estimates WHERE id > $1 AND id < $2 AND create_time_us >= $3 AND "
-            "create_time_us < $4 AND ($5 = '' OR container_id = $5) ORDER BY id ",
+            "create_time_us < $4 AND ($5 = '' OR container_id = $5) AND ($7 = '' OR "
+            "registration_id = $7) ORDER BY id ",
             ascending ? "ASC" : "DESC", " LIMIT $6");
         std::vector<EstimateRecord> out;
         SOILVOL_RETURN_IF_ERROR(Run("list", [&](pqxx::work& work) {
@@ -102,7 +108,7 @@ class PostgresRecordStore final : public RecordStore {
                 work.exec_params(sql, query.after_id.value_or(0),
                                  query.before_id.value_or(std::numeric_limits<std::int64_t>::max()),
                                  query.start_time_us, query.end_time_us, query.container_id,
-                                 static_cast<std::int64_t>(query.limit));
+                                 static_cast<std::int64_t>(query.limit), query.registration_id);
             for (const pqxx::row& row : rows) out.push_back(RecordFrom(row, query.with_payload));
         }));
         return out;
@@ -138,6 +144,16 @@ class PostgresRecordStore final : public RecordStore {
                                    container_id, policy.max_per_container)
                                .affected_rows();
             }
+        }));
+        return deleted;
+    }
+
+    absl::StatusOr<std::int64_t> DeleteContainer(const std::string& container_id) override {
+        std::int64_t deleted = 0;
+        SOILVOL_RETURN_IF_ERROR(Run("delete a container's records", [&](pqxx::work& work) {
+            deleted = work.exec_params("DELETE FROM soilvol_estimates WHERE container_id = $1",
+                                       container_id)
+                          .affected_rows();
         }));
         return deleted;
     }

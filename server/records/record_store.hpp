@@ -20,12 +20,16 @@ struct EstimateRecord {
     std::string container_id;
     std::int64_t create_time_us = 0;  ///< since the Unix epoch
     std::string request_id;
+    /// The container's registration (Container.registration_id) the estimate was measured
+    /// against; "" for records written before registrations had ids.
+    std::string registration_id;
     std::string payload;
 };
 
 /// Which records a List returns.
 struct RecordQuery {
-    std::string container_id;  ///< "" for every container
+    std::string container_id;     ///< "" for every container
+    std::string registration_id;  ///< "" for every registration
     /// Newest first below this id (a page after the previous one), or - with after_id -
     /// oldest first above it (a watch catching up). Neither: the newest first.
     std::optional<std::int64_t> before_id;
@@ -69,6 +73,10 @@ class RecordStore {
     virtual absl::StatusOr<std::int64_t> Prune(
         const RetentionPolicy& policy, std::int64_t now_us,
         const std::optional<std::vector<std::string>>& containers) = 0;
+
+    /// Deletes every record of `container_id` (DeleteContainer with purge_records); the number
+    /// deleted.
+    virtual absl::StatusOr<std::int64_t> DeleteContainer(const std::string& container_id) = 0;
 
     /// "sqlite" or "postgresql", for logs and metrics.
     virtual const char* kind() const = 0;

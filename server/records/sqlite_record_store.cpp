@@ -17,9 +17,16 @@ CREATE TABLE IF NOT EXISTS estimates (
     container_id TEXT NOT NULL,
     create_time_us INTEGER NOT NULL,
     request_id TEXT NOT NULL,
-    payload BLOB NOT NULL);
+    payload BLOB NOT NULL,
+    registration_id TEXT NOT NULL DEFAULT '');
 CREATE INDEX IF NOT EXISTS estimates_by_container ON estimates (container_id, id);
 CREATE INDEX IF NOT EXISTS estimates_by_time ON estimates (create_time_us);
+)sql";
+
+// Databases made before records named their registration gain the column (older records: '').
+constexpr const char* kSqliteRegistrations = R"sql(
+CREATE INDEX IF NOT EXISTS estimates_by_registration
+    ON estimates (container_id, registration_id, id);
 )sql";
 
 absl::Status SqliteError(sqlite3* db, int code, const char* what) {
@@ -94,11 +101,12 @@ EstimateRecord RecordFrom(const Statement& row, bool with_payload) {
     record.container_id = row.Text(1);
     record.create_time_us = row.Int(2);
     record.request_id = row.Text(3);
-    if (with_payload) record.payload = row.Text(4);
+    record.registration_id = row.Text(4);
+    if (with_payload) record.payload = row.Text(5);
     return record;
 }
 
-constexpr const char* kColumns = "id, container_id, create_time_us, request_id, payload";
+constexpr const char* kColumns = "id, container_id, create_time_us, request_id, registration_id";
 
 class SqliteRecordStore final : public RecordStore {
   public:
@@ -109,7 +117,13 @@ class SqliteRecordStore final : public RecordStore {
         for (const char* pragma : {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=FULL"}) {
             SOILVOL_RETURN_IF_ERROR(Exec(pragma));
         }
-        return Exec(kSqliteSchema);
+        SOILVOL_RETURN_IF_ERROR(Exec(kSqliteSchema));
+        SOILVOL_ASSIGN_OR_RETURN(const bool has_column, HasRegistrationColumn());
+        if (!has_column) {
+            SOILVOL_RETURN_IF_ERROR(
+                Exec("ALTER TABLE estimates ADD COLUMN registration_id TEXT NOT NULL DEFAULT ''"));
+        }
+        return Exec(kSqliteRegistrations);
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {
@@ -126,7 +140,7 @@ class SqliteRecordStore final : public RecordStore {
 
     absl::StatusOr<EstimateRecord> Get(const std::string& container_id, std::int64_t id) override {
         std::lock_guard<std::mutex> lock(mutex_);
-        Statement select(db_, absl::StrCat("SELECT ", kColumns,
+        Statement select(db_, absl::StrCat("SELECT ", kColumns, ", payload",
                                            " FROM estimates WHERE id = ?1 AND container_id = ?2"));
         SOILVOL_RETURN_IF_ERROR(select.Prepared("get"));
         select.Bind(1, id);
@@ -141,12 +155,12 @@ class SqliteRecordStore final : public RecordStore {
 
     absl::StatusOr<std::vector<EstimateRecord>> List(const RecordQuery& query) override {
         const bool ascending = query.after_id.has_value();
-        std::string sql = absl::StrCat(
-            "SELECT ",
-            query.with_payload ? kColumns : "id, container_id, create_time_us, request_id",
-            " FROM estimates WHERE id > ?1 AND id < ?2 AND create_time_us >= ?3 AND "
-            "create_time_us < ?4");
+        std::string sql =
+            absl::StrCat("SELECT ", kColumns, query.with_payload ? ", payload" : "",
+                         " FROM estimates WHERE id > ?1 AND id < ?2 AND create_time_us >= ?3 AND "
+                         "create_time_us < ?4");
         if (!query.container_id.empty()) sql += " AND container_id = ?5";
+        if (!query.registration_id.empty()) sql += " AND registration_id = ?7";
         absl::StrAppend(&sql, " ORDER BY id ", ascending ? "ASC" : "DESC", " LIMIT ?6");
         std::lock_guard<std::mutex> lock(mutex_);
         Statement select(db_, sql);
@@ -157,6 +171,7 @@ class SqliteRecordStore final : public RecordStore {
         select.Bind(4, query.end_time_us);
         if (!query.container_id.empty()) select.Bind(5, query.container_id);
         select.Bind(6, static_cast<std::int64_t>(query.limit));
+        if (!query.registration_id.empty()) select.Bind(7, query.registration_id);
         std::vector<EstimateRecord> out;
         while (true) {
             SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("list"));
@@ -202,9 +217,26 @@ class SqliteRecordStore final : public RecordStore {
         return deleted;
     }
 
+    absl::StatusOr<std::int64_t> DeleteContainer(const std::string& container_id) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement purge(db_, "DELETE FROM estimates WHERE container_id = ?1");
+        SOILVOL_RETURN_IF_ERROR(purge.Prepared("delete a container's records"));
+        purge.Bind(1, container_id);
+        SOILVOL_RETURN_IF_ERROR(purge.Step("delete a container's records").status());
+        return static_cast<std::int64_t>(sqlite3_changes(db_));
+    }
+
     const char* kind() const override { return "sqlite"; }
 
   private:
+    absl::StatusOr<bool> HasRegistrationColumn() {
+        Statement columns(db_,
+                          "SELECT 1 FROM pragma_table_info('estimates') WHERE name = "
+                          "'registration_id'");
+        SOILVOL_RETURN_IF_ERROR(columns.Prepared("read the schema"));
+        return columns.Step("read the schema");
+    }
+
     absl::Status Exec(const char* sql) {
         char* error = nullptr;
         const int code = sqlite3_exec(db_, sql, nullptr, nullptr, &error);
@@ -215,13 +247,14 @@ class SqliteRecordStore final : public RecordStore {
     absl::Status Insert(std::vector<EstimateRecord>& records) {
         Statement insert(db_,
                          "INSERT INTO estimates (container_id, create_time_us, request_id, "
-                         "payload) VALUES (?1, ?2, ?3, ?4)");
+                         "payload, registration_id) VALUES (?1, ?2, ?3, ?4, ?5)");
         SOILVOL_RETURN_IF_ERROR(insert.Prepared("insert"));
         for (EstimateRecord& record : records) {
             insert.Bind(1, record.container_id);
             insert.Bind(2, record.create_time_us);
             insert.Bind(3, record.request_id);
             insert.BindBlob(4, record.payload);
+            insert.Bind(5, record.registration_id);
             SOILVOL_RETURN_IF_ERROR(insert.Step("insert").status());
             record.id = sqlite3_last_insert_rowid(db_);
             insert.Reset();

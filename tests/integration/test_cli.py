@@ -190,10 +190,17 @@ class Cli(unittest.TestCase):
                                  "--display-name", "x", check=False)
             self.assertEqual(stale.returncode, 1)
             self.assertIn("ABORTED", stale.stderr)
-            self.run_cli("containers", "delete", "cli-box")
+            # Every registration's records with --registration -; a purge removes them all.
+            every = json.loads(self.run_cli("--json", "estimates", "list", "--container",
+                                            "cli-box", "--registration", "-").stdout)
+            self.assertEqual(len(every["estimates"]), 3)
+            self.run_cli("containers", "delete", "cli-box", "--purge-records")
             gone = self.run_cli("estimate", "--id", "cli-box", "--cloud", full, check=False)
             self.assertEqual(gone.returncode, 1)
             self.assertIn("NOT_FOUND", gone.stderr)
+            left = json.loads(self.run_cli("--json", "estimates", "list", "--container",
+                                           "cli-box", "--registration", "-").stdout)
+            self.assertEqual(left.get("estimates", []), [])
 
     def test_register_from_a_mesh_and_show_the_capacitys_uncertainty(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -20,7 +20,7 @@ import box_scene  # noqa: E402
 from harness import Server, load_grpc, needs_own_server, server_metric  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
-from google.protobuf import timestamp_pb2  # noqa: E402
+from google.protobuf import field_mask_pb2, timestamp_pb2  # noqa: E402
 
 CODE = grpc.StatusCode
 EMPTY = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
@@ -216,6 +216,61 @@ class RecordsContract:
             self.assertIn(field, ctx.exception.details())
         status, body = self.server.rest("GET", "/v1/containers/c/estimates/abc")
         self.assertEqual(status, 400, body)
+
+    def test_history_is_the_current_registration_and_deleting_keeps_or_purges_records(self):
+        cid, gone = self.prefix + "-reg", self.prefix + "-purge"
+        first = self.register(cid)
+        self.assertTrue(first.registration_id)
+        early = self.estimate(cid, 0.1, omit_heightmap=True)
+        self.assertEqual(early.registration_id, first.registration_id)
+        # Renaming keeps the registration; registering again makes a new one.
+        renamed = self.stub.UpdateContainer(pb.UpdateContainerRequest(
+            container=pb.Container(container_id=cid, display_name="Bucket 7"),
+            update_mask=field_mask_pb2.FieldMask(paths=["display_name"])), timeout=30)
+        self.assertEqual(renamed.registration_id, first.registration_id)
+        second = self.register(cid)
+        self.assertNotEqual(second.registration_id, first.registration_id)
+        late = self.estimate(cid, 0.2, omit_heightmap=True)
+        self.assertEqual(late.registration_id, second.registration_id)
+
+        def listed(container, registration=None, transport="grpc"):
+            if transport == "rest":
+                query = "" if registration is None else f"?registrationId={registration}"
+                status, body = self.server.rest(
+                    "GET", f"/v1/containers/{container}/estimates{query}")
+                self.assertEqual(status, 200, body)
+                return [e["estimateId"] for e in body.get("estimates", [])]
+            request = pb.ListEstimatesRequest(container_id=container,
+                                              registration_id=registration or "")
+            return [e.estimate_id for e in self.stub.ListEstimates(request, timeout=30).estimates]
+
+        for transport in ("grpc", "rest"):
+            self.assertEqual(listed(cid, transport=transport), [late.estimate_id])
+            self.assertEqual(listed(cid, "-", transport), [late.estimate_id, early.estimate_id])
+            self.assertEqual(listed(cid, first.registration_id, transport), [early.estimate_id])
+        with self.assertRaises(grpc.RpcError) as ctx:
+            listed(cid, "../x")
+        self.assertEqual(ctx.exception.code(), CODE.INVALID_ARGUMENT)
+        self.assertIn("registration_id", ctx.exception.details())
+        # Deleted, the records stay by default, every registration's.
+        self.stub.DeleteContainer(pb.DeleteContainerRequest(container_id=cid), timeout=30)
+        self.assertEqual(listed(cid), [late.estimate_id, early.estimate_id])
+        # Purged: none left, over REST; another container's records are untouched.
+        self.register(gone)
+        purged = self.estimate(gone, 0.1, omit_heightmap=True)
+        status, body = self.server.rest("DELETE", f"/v1/containers/{gone}?purgeRecords=true")
+        self.assertEqual(status, 200, body)
+        self.assertEqual(listed(gone), [])
+        with self.assertRaises(grpc.RpcError) as ctx:
+            self.stub.GetEstimate(pb.GetEstimateRequest(container_id=gone,
+                                                        estimate_id=purged.estimate_id),
+                                  timeout=30)
+        self.assertEqual(ctx.exception.code(), CODE.NOT_FOUND)
+        self.assertEqual(listed(cid), [late.estimate_id, early.estimate_id])
+        # A purge of a container already deleted purges what is left, and says NOT_FOUND.
+        status, body = self.server.rest("DELETE", f"/v1/containers/{cid}?purgeRecords=true")
+        self.assertEqual(status, 404, body)
+        self.assertEqual(listed(cid), [])
 
     def test_a_second_replica_reads_what_the_first_recorded(self):
         cid = self.prefix + "-r"

@@ -1,6 +1,7 @@
 #include "server/records/record_store.hpp"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <algorithm>
 #include <fstream>
@@ -197,6 +198,76 @@ TEST_P(RecordStoreTest, AWatcherResumingAfterItsLastIdMissesNoRecordOfAnyReplica
     std::sort(all.begin(), all.end());
     EXPECT_EQ(all.size(), 2u * (kPerWriter + kPerWriter / 3));
     EXPECT_EQ(seen, all);
+}
+
+TEST_P(RecordStoreTest, ListsOneRegistrationAndPurgesOneContainer) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    std::vector<EstimateRecord> batch = {Draft("a", 10), Draft("a", 20), Draft("a", 30),
+                                         Draft("b", 40)};
+    batch[0].registration_id = "reg-1";
+    batch[1].registration_id = "reg-2";
+    batch[2].registration_id = "reg-2";
+    batch[3].registration_id = "reg-2";  // another container's registration of the same name
+    ASSERT_TRUE(store->Append(batch).ok());
+    RecordQuery query;
+    query.container_id = "a";
+    query.registration_id = "reg-2";
+    const auto second = store->List(query);
+    ASSERT_TRUE(second.ok()) << second.status();
+    EXPECT_EQ(Ids(*second), (std::vector<std::int64_t>{batch[2].id, batch[1].id}));
+    EXPECT_EQ((*second)[0].registration_id, "reg-2");
+    query.registration_id = "";
+    EXPECT_EQ(store->List(query)->size(), 3u);
+    EXPECT_EQ(store->Get("a", batch[0].id)->registration_id, "reg-1");
+    // Purging a's records leaves b's.
+    const auto purged = store->DeleteContainer("a");
+    ASSERT_TRUE(purged.ok()) << purged.status();
+    EXPECT_EQ(*purged, 3);
+    EXPECT_TRUE(store->List(query)->empty());
+    query.container_id = "";
+    EXPECT_EQ(Ids(*store->List(query)), (std::vector<std::int64_t>{batch[3].id}));
+    EXPECT_EQ(*store->DeleteContainer("nobody"), 0);
+}
+
+// A records file written before records named their registration: opened, it gains the column,
+// its records read with registration "" and new ones are kept with theirs.
+TEST(RecordStore, AnOlderSqliteDatabaseGainsTheRegistrationColumn) {
+    ScratchDir dir;
+    const std::filesystem::path path = dir.path() / "old.sqlite3";
+    {
+        sqlite3* raw = nullptr;
+        ASSERT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
+        ASSERT_EQ(sqlite3_exec(raw,
+                               "CREATE TABLE estimates (id INTEGER PRIMARY KEY AUTOINCREMENT, "
+                               "container_id TEXT NOT NULL, create_time_us INTEGER NOT NULL, "
+                               "request_id TEXT NOT NULL, payload BLOB NOT NULL);"
+                               "INSERT INTO estimates (container_id, create_time_us, request_id, "
+                               "payload) VALUES ('a', 5, 'r', 'old');",
+                               nullptr, nullptr, nullptr),
+                  SQLITE_OK);
+        sqlite3_close(raw);
+    }
+    for (int reopen = 0; reopen < 2; ++reopen) {  // the second open finds the column
+        auto store = OpenRecordStore("sqlite:" + path.string(), dir.path());
+        ASSERT_TRUE(store.ok()) << store.status();
+        RecordQuery query;
+        query.container_id = "a";
+        const auto rows = (*store)->List(query);
+        ASSERT_TRUE(rows.ok()) << rows.status();
+        ASSERT_EQ(rows->size(), 1u + reopen);
+        EXPECT_EQ(rows->back().payload, "old");
+        EXPECT_EQ(rows->back().registration_id, "");
+        if (reopen == 0) {
+            std::vector<EstimateRecord> more = {Draft("a", 6, "new")};
+            more[0].registration_id = "reg-9";
+            ASSERT_TRUE((*store)->Append(more).ok());
+        } else {
+            EXPECT_EQ(rows->front().registration_id, "reg-9");
+        }
+    }
 }
 
 TEST(RecordStore, UrlsNameTheirBackendAndBadOnesAreRefused) {

@@ -145,6 +145,9 @@ class DownStore final : public RecordStore {
                                        const std::optional<std::vector<std::string>>&) override {
         return absl::UnavailableError("connection refused");
     }
+    absl::StatusOr<std::int64_t> DeleteContainer(const std::string&) override {
+        return absl::UnavailableError("connection refused");
+    }
     const char* kind() const override { return "down"; }
     std::atomic<int> appends{0};
 };
