@@ -1,6 +1,7 @@
 // soilvol-server: flags (or SOILVOL_* variables) -> ServerOptions -> Server; SIGTERM/SIGINT
 // stop it gracefully.
 #include <pthread.h>
+#include <sys/resource.h>
 
 #include <csignal>
 #include <cstdlib>
@@ -202,6 +203,16 @@ void LogListening(const soilvol::server::Server& server,
          {"revision", soilvol::GetBuildInfo().revision}});
 }
 
+/// Every watch stream and REST connection holds a socket: the soft limit on open files (often
+/// 1024) is raised to the hard one, as Go's runtime and nginx's worker_rlimit_nofile do, so
+/// that --max-watches and --http-max-connections are what bound them.
+void RaiseOpenFileLimit() {
+    rlimit limit{};
+    if (getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur >= limit.rlim_max) return;
+    limit.rlim_cur = limit.rlim_max;
+    setrlimit(RLIMIT_NOFILE, &limit);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -223,6 +234,7 @@ int main(int argc, char** argv) {
         std::cerr << "soilvol-server: " << s.message() << "\n";
         return 2;
     }
+    RaiseOpenFileLimit();
     // Signals go to one thread that asks the server to stop; every other thread blocks them.
     sigset_t signals;
     sigemptyset(&signals);

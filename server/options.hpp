@@ -36,7 +36,9 @@ struct ServerOptions {
     std::vector<std::string> cors_origins;  ///< allowed browser origins; "*" for any
     double shutdown_grace_s = 10.0;         ///< in-flight work gets this long on SIGTERM
     int http_threads = 0;            ///< REST I/O threads; 0 = 2 (they never wait for the engine)
-    int http_max_connections = 512;  ///< REST connections at once; more get 503 and close
+    /// REST connections at once, SSE streams included (each a dashboard screen); more get
+    /// 503 and close.
+    int http_max_connections = 4096;
     double http_header_timeout_s = 10.0;  ///< from a request's first byte to its header's end
     double http_idle_timeout_s = 60.0;    ///< keep-alive wait for the next request
     /// A container whose struck capacity's 1-sigma exceeds this share of it carries a warning

@@ -423,6 +423,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
         Lowest().socket().async_wait(tcp::socket::wait_read, [self = this->shared_from_this(),
                                                               stream](beast::error_code ec) {
             if (ec || stream != self->stream_serial_) return;  // the stream ended first
+            // Its last chunk is on its way: what arrived is the client's next request.
+            if (self->stream_end_ || self->stream_done_) return;
             self->Close();
         });
     }

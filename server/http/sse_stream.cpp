@@ -23,13 +23,24 @@ bool SseStream::Send(std::string chunk) {
 
 bool SseStream::Deliver(const google::protobuf::Message* message) {
     if (message == nullptr) return Send(": keepalive\n\n");
-    std::string json;
-    if (!google::protobuf::util::MessageToJsonString(*message, &json).ok()) return true;
     const google::protobuf::FieldDescriptor* id =
         message->GetDescriptor()->FindFieldByName(id_field_);
     const std::string event_id =
         id != nullptr ? message->GetReflection()->GetString(*message, id) : "";
-    return Send(absl::StrCat("id: ", event_id, "\nevent: ", event_, "\ndata: ", json, "\n\n"));
+    // A feed delivers one message to every stream in turn on its thread: the event is
+    // rendered once (JSON printing was most of a delivery's cost) and copied to each.
+    struct Rendered {
+        const google::protobuf::Message* message = nullptr;
+        std::string event_id, event, chunk;
+    };
+    thread_local Rendered last;
+    if (last.message != message || last.event_id != event_id || last.event != event_) {
+        std::string json;
+        if (!google::protobuf::util::MessageToJsonString(*message, &json).ok()) return true;
+        last = {message, event_id, event_,
+                absl::StrCat("id: ", event_id, "\nevent: ", event_, "\ndata: ", json, "\n\n")};
+    }
+    return Send(last.chunk);
 }
 
 void SseStream::End(const absl::Status& status) {
