@@ -16,6 +16,33 @@ const token = () => localStorage.getItem("soilvol.token") || "";
 const STATUS = (s) => (s || "LOAD_STATUS_UNSPECIFIED").replace("LOAD_STATUS_", "");
 const fmt = (v, d) => (v === undefined || v === null || Number.isNaN(v)) ? "-" : Number(v).toFixed(d);
 
+// Times in one zone, named on the page: the browser's own, or one chosen in the header (kept in
+// this browser).
+const BROWSER_ZONE = Intl.DateTimeFormat().resolvedOptions().timeZone || "UTC";
+const zone = () => localStorage.getItem("soilvol.zone") || BROWSER_ZONE;
+function timeText(iso, parts = "datetime") {
+  const options = { timeZone: zone(), hour: "2-digit", minute: "2-digit", hourCycle: "h23" };
+  if (parts !== "minutes") options.second = "2-digit";
+  if (parts === "datetime" || parts === "day") {
+    Object.assign(options, { year: "numeric", month: "2-digit", day: "2-digit" });
+  }
+  if (parts === "datetime") options.timeZoneName = "short";
+  return new Intl.DateTimeFormat(undefined, options).format(new Date(iso));
+}
+function zoneOffsetText() {
+  const part = new Intl.DateTimeFormat("en-US", { timeZone: zone(), timeZoneName: "shortOffset" })
+    .formatToParts(new Date()).find((p) => p.type === "timeZoneName");
+  return part ? part.value : "";
+}
+
+// A container's records of its current registration (Container.registrationId): the history of
+// a container registered again starts anew.
+function estimatesOf(container) {
+  const list = state.estimates.get(container.containerId) || [];
+  if (!container.registrationId) return list;
+  return list.filter((e) => !e.result.registrationId || e.result.registrationId === container.registrationId);
+}
+
 function headers(extra = {}) {
   const h = { ...extra };
   if (token()) h.Authorization = `Bearer ${token()}`;
@@ -118,7 +145,7 @@ function renderCards() {
   }
   for (const container of [...state.containers.values()].sort((a, b) =>
     (a.displayName || a.containerId).localeCompare(b.displayName || b.containerId))) {
-    const last = (state.estimates.get(container.containerId) || [])[0];
+    const last = estimatesOf(container)[0];
     const card = document.createElement("article");
     card.className = "card" + (state.selected === container.containerId ? " selected" : "");
     card.dataset.container = container.containerId;
@@ -174,7 +201,7 @@ function timeAgo(iso) {
   if (seconds < 60) return `${Math.round(seconds)} s ago`;
   if (seconds < 3600) return `${Math.round(seconds / 60)} min ago`;
   if (seconds < 86400) return `${Math.round(seconds / 3600)} h ago`;
-  return new Date(iso).toLocaleDateString();
+  return timeText(iso, "day").split(",")[0];
 }
 
 // ----------------------------------------------------------------------------------------------
@@ -192,7 +219,7 @@ async function renderDetail() {
   if (!container) { $("detail").classList.add("hidden"); return; }
   $("detail").classList.remove("hidden");
   $("detail-title").textContent = container.displayName || container.containerId;
-  const list = state.estimates.get(container.containerId) || [];
+  const list = estimatesOf(container);
   const last = list[0];
   const badge = $("detail-status");
   const status = last ? STATUS(last.result.load && last.result.load.status) : "NONE";
@@ -258,7 +285,7 @@ function renderFacts(container, last) {
   const m = container.material;
   if (m && (m.name || m.densityKgM3)) add("material", `${m.name || ""} ${m.densityKgM3 ? `${m.densityKgM3} kg/m³` : ""}`);
   if (r && r.coverage) add("scan saw", `${fmt(100 * r.coverage.scanObservedShare, 0)} % of the opening`);
-  if (last) add("measured", new Date(last.createTime).toLocaleString());
+  if (last) add("measured", timeText(last.createTime));
   const d = r && r.distribution;
   $("share-x").style.width = `${100 * (d ? d.positiveXShare : 0.5)}%`;
   $("share-y").style.width = `${100 * (d ? d.positiveYShare : 0.5)}%`;
@@ -321,6 +348,13 @@ function renderHeightmap(result) {
   }
   $("heightmap-scale").style.background =
     `linear-gradient(to right, ${VIRIDIS.map((c) => `rgb(${c.join(",")})`).join(", ")})`;
+  const ticks = $("heightmap-ticks");
+  ticks.textContent = "";
+  for (const v of [low, low + span / 2, low + span]) {
+    const tick = document.createElement("span");
+    tick.textContent = `${fmt(100 * v, 0)} cm`;
+    ticks.append(tick);
+  }
   $("heightmap-caption").textContent =
     `soil height ${fmt(100 * low, 0)} - ${fmt(100 * (low + span), 0)} cm over the empty surface;` +
     ` ${h.cols} x ${h.rows} cells of ${fmt(100 * h.cellM, 1)} cm; + load centre`;
@@ -332,13 +366,19 @@ function renderHistory(container, list) {
   clearCanvas(canvas);
   const points = list.slice(0, 50).reverse();
   const target = targetOf(container);
+  $("history-caption").textContent = `volume [m³] of the last ${points.length} loads` +
+    (target ? `; the target band (${fmt(target.volume, 2)} m³ -${fmt(100 * target.under, 0)} / ` +
+      `+${fmt(100 * target.over, 0)} %) shaded` : "; no target set");
   const pad = { left: 46, right: 10, top: 10, bottom: 24 };
   const w = canvas.width - pad.left - pad.right;
   const h = canvas.height - pad.top - pad.bottom;
   let top = target ? target.volume * (1 + target.over) * 1.1 : 0.001;
   for (const e of points) top = Math.max(top, e.result.volumeM3 * 1.1);
   const y = (v) => pad.top + h - (v / top) * h;
-  const x = (i) => pad.left + (points.length <= 1 ? w / 2 : (i / (points.length - 1)) * w);
+  // Along time: the first and last loads at the ends.
+  const times = points.map((e) => Date.parse(e.createTime));
+  const t0 = times[0], t1 = times[times.length - 1];
+  const x = (i) => pad.left + (points.length <= 1 || t1 === t0 ? w / 2 : ((times[i] - t0) / (t1 - t0)) * w);
   ctx.font = "11px system-ui, sans-serif";
   ctx.fillStyle = "#6b746f";
   ctx.strokeStyle = "#d9ddd8";
@@ -366,10 +406,15 @@ function renderHistory(container, list) {
     ctx.fillStyle = css.getPropertyValue(`--${name}`).trim() || "#888";
     ctx.beginPath(); ctx.arc(x(i), y(e.result.volumeM3), 3.5, 0, 2 * Math.PI); ctx.fill();
   }
+  // The ends' times, as precise as their span needs, and the zone.
+  const span = t1 - t0;
+  const parts = span >= 86400e3 ? "day" : span >= 3600e3 ? "minutes" : "seconds";
+  const firstLabel = timeText(points[0].createTime, parts);
+  const lastLabel = `${timeText(points[points.length - 1].createTime, parts)} ${zoneOffsetText()}`;
   ctx.fillStyle = "#6b746f";
-  ctx.fillText(new Date(points[0].createTime).toLocaleTimeString(), pad.left, canvas.height - 6);
-  const lastLabel = new Date(points[points.length - 1].createTime).toLocaleTimeString();
-  ctx.fillText(lastLabel, pad.left + w - ctx.measureText(lastLabel).width, canvas.height - 6);
+  ctx.fillText(firstLabel, pad.left, canvas.height - 6);
+  if (points.length > 1) ctx.fillText(lastLabel, pad.left + w - ctx.measureText(lastLabel).width, canvas.height - 6);
+  canvas.dataset.axis = points.length > 1 ? `${firstLabel} | ${lastLabel}` : firstLabel;
 }
 
 function renderRecent(list) {
@@ -378,7 +423,7 @@ function renderRecent(list) {
   for (const e of list.slice(0, 10)) {
     const row = document.createElement("tr");
     const status = STATUS(e.result.load && e.result.load.status);
-    for (const text of [new Date(e.createTime).toLocaleString(), fmt(e.result.volumeM3, 3),
+    for (const text of [timeText(e.createTime), fmt(e.result.volumeM3, 3),
       fmt(1000 * e.result.uncertaintyM3, 0), e.result.massKg !== undefined ? fmt(e.result.massKg, 0) : "-",
       null, e.requestId || "-"]) {
       const cell = document.createElement("td");
@@ -503,7 +548,24 @@ async function upload(event) {
 
 // ----------------------------------------------------------------------------------------------
 
+function startZone() {
+  const select = $("zone");
+  for (const name of [...new Set([BROWSER_ZONE, "UTC", zone()])]) {
+    const option = document.createElement("option");
+    option.value = name;
+    option.textContent = name === BROWSER_ZONE ? `${name} (this device)` : name;
+    select.append(option);
+  }
+  select.value = zone();
+  select.addEventListener("change", () => {
+    localStorage.setItem("soilvol.zone", select.value);
+    renderCards();
+    if (state.selected) renderDetail();
+  });
+}
+
 function start() {
+  startZone();
   $("token-button").addEventListener("click", () => $("token-panel").classList.toggle("hidden"));
   $("token-save").addEventListener("click", () => {
     localStorage.setItem("soilvol.token", $("token-input").value.trim());

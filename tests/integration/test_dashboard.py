@@ -33,7 +33,7 @@ TOKEN = "dashboard-token-0123456789abcdef"
 class Browser:
     """Chromium over the DevTools protocol on a pipe: commands in, events collected."""
 
-    def __init__(self, width=1280, height=1000):
+    def __init__(self, width=1280, height=1000, zone=None):
         self.profile = tempfile.mkdtemp(prefix="soilvol-chromium-")
         to_browser_r, self.to_browser = os.pipe()
         self.from_browser, from_browser_w = os.pipe()
@@ -49,7 +49,7 @@ class Browser:
             [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
              "--remote-debugging-pipe", f"--user-data-dir={self.profile}", "--no-first-run",
              f"--window-size={width},{height}", "about:blank"],
-            close_fds=False, preexec_fn=fds,
+            close_fds=False, preexec_fn=fds, env=dict(os.environ, **({"TZ": zone} if zone else {})),
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         os.close(to_browser_r)
         os.close(from_browser_w)
@@ -251,6 +251,67 @@ class Dashboard(unittest.TestCase):
     def test_the_site_sees_registrations_and_loads_live(self):
         with Server(args=["--workers", "2"]) as server:
             self.run_flow(server, "dashboard.png")
+
+    def test_a_tablet_and_a_phone_see_the_whole_page_with_named_times(self):
+        """At 1280, 900 (tablet) and 420 px (phone): nothing wider than the window, the colour
+        bar's values, the target band named, the history's ends apart and the times' zone shown;
+        a container registered again starts a new history."""
+        with Server(args=["--workers", "2"]) as server:
+            self.assertEqual(register(server, "truck-1", "Truck 1", 0.2)[0], 200)
+            self.assertEqual(estimate(server, "truck-1", 0.15, "width-1")[0], 200)
+            time.sleep(1.2)  # the history's ends a second apart
+            self.assertEqual(estimate(server, "truck-1", 0.2, "width-2")[0], 200)
+            for width in (1280, 900, 420):
+                browser = Browser(width=width, height=1100, zone="Europe/Berlin")
+                try:
+                    # Headless windows are at least 500 px wide: the phone's width is emulated.
+                    browser.call("Emulation.setDeviceMetricsOverride",
+                                 {"width": width, "height": 1100, "deviceScaleFactor": 1,
+                                  "mobile": width < 500}, session=True)
+                    browser.call("Page.navigate", {"url": server.base_url + "/#truck-1"},
+                                 session=True)
+                    self.assertTrue(browser.wait_for(
+                        "document.querySelectorAll('#recent tbody tr').length === 2 &&"
+                        " document.getElementById('heightmap-ticks').children.length === 3", 10),
+                        browser.errors())
+                    self.assertEqual(browser.evaluate("window.innerWidth"), width)
+                    self.assertLessEqual(
+                        browser.evaluate("document.documentElement.scrollWidth"),
+                        browser.evaluate("window.innerWidth"), f"overflows at {width} px")
+                    ticks = browser.evaluate(
+                        "[...document.getElementById('heightmap-ticks').children]"
+                        ".map((t) => t.textContent)")
+                    self.assertTrue(all(t.endswith(" cm") for t in ticks), ticks)
+                    self.assertIn("target band (0.20 m³",
+                                  browser.evaluate("document.getElementById('history-caption')"
+                                                   ".textContent"))
+                    first, last = browser.evaluate(
+                        "document.getElementById('history').dataset.axis").split(" | ")
+                    self.assertNotEqual(first, last.split(" ")[0])
+                    self.assertIn("GMT+1", last)
+                    self.assertEqual(browser.evaluate("document.getElementById('zone').value"),
+                                     "Europe/Berlin")
+                    shown = browser.evaluate("document.querySelector('#recent tbody td')"
+                                             ".textContent")
+                    self.assertRegex(shown, r"GMT\+1|CET")
+                    os.makedirs(SCREENSHOTS, exist_ok=True)
+                    browser.screenshot(os.path.join(SCREENSHOTS, f"dashboard-{width}px.png"))
+                    self.assertEqual(browser.errors(), [])
+                finally:
+                    browser.close()
+            # Registered again: its card and details start anew (the records stay, listed with
+            # registrationId=-).
+            self.assertEqual(register(server, "truck-1", "Truck 1", 0.2)[0], 200)
+            browser = Browser()
+            try:
+                browser.call("Page.navigate", {"url": server.base_url + "/#truck-1"},
+                             session=True)
+                self.assertTrue(browser.wait_for(
+                    "document.getElementById('detail-status').textContent === 'no loads yet'"
+                    " && document.querySelectorAll('#recent tbody tr').length === 0", 10),
+                    browser.errors())
+            finally:
+                browser.close()
 
     def test_with_token_auth(self):
         folder = tempfile.mkdtemp(prefix="soilvol-dash-auth-")
