@@ -35,7 +35,7 @@ struct ServerOptions {
     std::string log_format = "text";        ///< text or json
     std::vector<std::string> cors_origins;  ///< allowed browser origins; "*" for any
     double shutdown_grace_s = 10.0;         ///< in-flight work gets this long on SIGTERM
-    int http_threads = 0;            ///< REST I/O threads; 0 = 2 (they never wait for the engine)
+    int http_threads = 0;  ///< REST I/O threads; 0 = 2 (they never wait for the engine)
     /// REST connections at once, SSE streams included (each a dashboard screen); more get
     /// 503 and close.
     int http_max_connections = 4096;
