@@ -106,10 +106,15 @@ class Browser:
         return result["result"].get("value")
 
     def wait_for(self, expression, timeout):
+        """Whether `expression` became true within `timeout` s; while the page is still loading
+        it may throw (an element not there yet), which counts as not yet."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if self.evaluate(expression):
-                return True
+            try:
+                if self.evaluate(expression):
+                    return True
+            except RuntimeError:
+                pass
             time.sleep(0.05)
         return False
 
@@ -307,8 +312,9 @@ class Dashboard(unittest.TestCase):
                 browser.call("Page.navigate", {"url": server.base_url + "/#truck-1"},
                              session=True)
                 self.assertTrue(browser.wait_for(
-                    "document.getElementById('detail-status').textContent === 'no loads yet'"
-                    " && document.querySelectorAll('#recent tbody tr').length === 0", 10),
+                    "(() => { const s = document.getElementById('detail-status');"
+                    " return s !== null && s.textContent === 'no loads yet' &&"
+                    " document.querySelectorAll('#recent tbody tr').length === 0; })()", 10),
                     browser.errors())
             finally:
                 browser.close()
