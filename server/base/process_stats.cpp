@@ -4,10 +4,11 @@
 #include <unistd.h>
 
 #include <charconv>
-#include <fstream>
-#include <sstream>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "server/base/watched_file.hpp"
 
 namespace soilvol::server {
 namespace {
@@ -31,11 +32,9 @@ bool ParseNumber(std::string_view word, T& out) {
     return error == std::errc() && end == word.data() + word.size();
 }
 
-std::string ReadSmallFile(const char* path) {
-    std::ifstream in(path);
-    std::ostringstream text;
-    text << in.rdbuf();
-    return text.str().substr(0, 1 << 16);
+// A /proc file's text, "" when it cannot be read whole within `max_bytes`.
+std::string ProcText(const std::string& path, std::size_t max_bytes) {
+    return ReadSmallFile(path, max_bytes, "metrics").value_or("");
 }
 
 double OpenFds() {
@@ -101,16 +100,17 @@ ProcessStats ReadProcessStats() {
     ProcessStats out;
     const double ticks = static_cast<double>(sysconf(_SC_CLK_TCK));
     const double page = static_cast<double>(sysconf(_SC_PAGESIZE));
-    if (const auto stat = ParseProcStat(ReadSmallFile("/proc/self/stat")); stat && ticks > 0) {
+    if (const auto stat = ParseProcStat(ProcText("/proc/self/stat", 4096)); stat && ticks > 0) {
         out.cpu_seconds = static_cast<double>(stat->utime_ticks + stat->stime_ticks) / ticks;
         out.resident_bytes = static_cast<double>(stat->rss_pages) * page;
         out.virtual_bytes = static_cast<double>(stat->vsize_bytes);
-        if (const auto boot = ParseBootTime(ReadSmallFile("/proc/stat"))) {
-            out.start_time_s = *boot + static_cast<double>(stat->start_ticks) / ticks;
-        }
+        // The boot time does not change: /proc/stat (per-CPU lines and interrupt counts before
+        // btime, up to 1 MiB on large machines) is read at the first scrape only.
+        static const std::optional<double> boot = ParseBootTime(ProcText("/proc/stat", 1 << 20));
+        if (boot) out.start_time_s = *boot + static_cast<double>(stat->start_ticks) / ticks;
     }
     out.open_fds = OpenFds();
-    out.max_fds = ParseMaxOpenFiles(ReadSmallFile("/proc/self/limits")).value_or(0.0);
+    out.max_fds = ParseMaxOpenFiles(ProcText("/proc/self/limits", 1 << 16)).value_or(0.0);
     return out;
 }
 

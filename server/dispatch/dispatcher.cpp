@@ -123,8 +123,8 @@ void Dispatcher::Finish(const CallContext& context, const CallRecord& record,
     for (const auto& [stage, ms] : record.stages_ms) metrics_.RecordStage(stage, ms / 1000.0);
     if (status.ok() && record.measured) {
         const CallRecord::Measured& m = *record.measured;
-        metrics_.RecordEstimate(m.container_id, m.load_status, m.volume_m3, m.bank_volume_m3,
-                                m.mass_kg);
+        metrics_.RecordEstimate(m.container_id, m.load_status, record.volume_m3.value_or(0.0),
+                                m.bank_volume_m3, m.mass_kg);
     }
     const LogLevel level = status.ok()                           ? LogLevel::kInfo
                            : HttpStatusFor(status.code()) >= 500 ? LogLevel::kError

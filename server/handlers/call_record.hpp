@@ -19,11 +19,11 @@ struct CallRecord {
     StopToken stop;
     std::vector<std::pair<std::string, std::string>> ids;  ///< ("container", "bucket-7"), ...
     std::optional<double> volume_m3;
-    /// Set by EstimateVolume when it answers: what the per-container metrics count.
+    /// Set by EstimateVolume when it answers (with volume_m3): what the per-container metrics
+    /// count.
     struct Measured {
         std::string container_id;
         std::string load_status;  ///< "loaded_ok", "overloaded", ... ("loaded": no targets)
-        double volume_m3 = 0.0;
         double bank_volume_m3 = 0.0;
         std::optional<double> mass_kg;  ///< with the material's density
     };

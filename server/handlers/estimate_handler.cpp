@@ -185,8 +185,7 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     RecordTimings(record, timer.Lap(), response->mutable_timings());
     record.volume_m3 = estimate.volume_m3;
     record.measured = CallRecord::Measured{
-        request.container_id(), LoadStatusLabel(load.status), estimate.volume_m3,
-        response->load().bank_volume_m3(),
+        request.container_id(), LoadStatusLabel(load.status), response->load().bank_volume_m3(),
         response->has_mass_kg() ? std::optional<double>(response->mass_kg()) : std::nullopt};
     RecordEstimate(request, response, record);
     if (request.omit_heightmap()) response->clear_heightmap();
