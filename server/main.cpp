@@ -83,6 +83,10 @@ void AddEngineFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
                    "warning, (0, 1]")
         ->envname("SOILVOL_CAPACITY_WARNING_SHARE")
         ->capture_default_str();
+    app.add_option("--load-idle-seconds", o.load_idle_s,
+                   "An open truck load that got no pass for this long is closed (0 = never)")
+        ->envname("SOILVOL_LOAD_IDLE_SECONDS")
+        ->capture_default_str();
 }
 
 /// Logging and browsers.

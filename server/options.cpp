@@ -72,6 +72,9 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (!(o.capacity_warning_share > 0.0 && o.capacity_warning_share <= 1.0)) {
         return Invalid("capacity-warning-share", "must be in (0, 1]");
     }
+    if (!(o.load_idle_s >= 0.0 && o.load_idle_s <= 7 * 86400.0)) {
+        return Invalid("load-idle-seconds", "must be in [0, 604800] (0: never)");
+    }
     return absl::OkStatus();
 }
 

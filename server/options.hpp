@@ -44,6 +44,8 @@ struct ServerOptions {
     /// A container whose struck capacity's 1-sigma exceeds this share of it carries a warning
     /// (Container.warnings), (0, 1].
     double capacity_warning_share = 0.01;
+    /// An open truck load that got no pass for this long is closed; 0 = never.
+    double load_idle_s = 1800.0;
 
     // Security: TLS (both transports), credentials, what is open.
     std::string tls_cert;          ///< PEM certificate chain; set with tls_key: TLS on both ports

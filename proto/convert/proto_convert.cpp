@@ -425,8 +425,7 @@ absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material,
     return out;
 }
 
-void ToProto(const volume::LoadAssessment& load, v1::EstimateVolumeResponse* proto) {
-    v1::LoadAssessment* out = proto->mutable_load();
+void ToProto(const volume::LoadAssessment& load, v1::LoadAssessment* out) {
     switch (load.status) {
         case volume::LoadStatus::kEmpty:
             out->set_status(v1::LOAD_STATUS_EMPTY);
@@ -450,7 +449,6 @@ void ToProto(const volume::LoadAssessment& load, v1::EstimateVolumeResponse* pro
     out->set_status_probability(load.status_probability);
     if (load.target_ratio) out->set_target_ratio(*load.target_ratio);
     if (load.bank_volume_m3) out->set_bank_volume_m3(*load.bank_volume_m3);
-    if (load.mass_kg) proto->set_mass_kg(*load.mass_kg);
     if (load.mass_sigma_kg) out->set_mass_uncertainty_kg(*load.mass_sigma_kg);
     out->set_empty_threshold_m3(load.empty_threshold_m3);
 }

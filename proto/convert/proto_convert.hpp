@@ -66,7 +66,7 @@ void ToProto(const Pose& pose, v1::Pose* proto);
 void ToProto(const volume::VolumeResult& volume, v1::Heightmap* proto);
 /// The estimate's figures into `proto` (stereo timings separately, by the caller).
 void ToProto(const pipeline::VolumeEstimate& estimate, v1::EstimateVolumeResponse* proto);
-/// The assessment into `proto`'s load (and mass_kg).
-void ToProto(const volume::LoadAssessment& load, v1::EstimateVolumeResponse* proto);
+/// The assessment's fields (a response's mass_kg is the caller's to set: it is not in it).
+void ToProto(const volume::LoadAssessment& load, v1::LoadAssessment* out);
 
 }  // namespace soilvol::server

@@ -156,6 +156,7 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     SOILVOL_ASSIGN_OR_RETURN(const pipeline::EstimateConfig config,
                              pipeline::ConfigureEstimate(options, container->model));
     SOILVOL_RETURN_IF_ERROR(CheckSameSensor(request.scan(), container->info));
+    SOILVOL_ASSIGN_OR_RETURN(std::optional<LoadLink> load_link, LoadLinkOf(request, response));
     SOILVOL_ASSIGN_OR_RETURN(const LoadRules rules, ToLoadRules(container->info.material(),
                                                                 container->info.load_targets()));
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan,
@@ -181,13 +182,14 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     const volume::LoadAssessment load =
         volume::AssessLoad(estimate.volume_m3, estimate.uncertainty_m3, rules.material,
                            rules.targets, options.material_density_kg_m3);
-    ToProto(load, response);
+    ToProto(load, response->mutable_load());
+    if (load.mass_kg) response->set_mass_kg(*load.mass_kg);
     RecordTimings(record, timer.Lap(), response->mutable_timings());
     record.volume_m3 = estimate.volume_m3;
     record.measured = CallRecord::Measured{
         request.container_id(), LoadStatusLabel(load.status), response->load().bank_volume_m3(),
         response->has_mass_kg() ? std::optional<double>(response->mass_kg()) : std::nullopt};
-    RecordEstimate(request, response, record);
+    RecordEstimate(request, response, std::move(load_link), record);
     if (request.omit_heightmap()) response->clear_heightmap();
     return absl::OkStatus();
 }

@@ -45,7 +45,8 @@ absl::StatusOr<EstimateRecorder*> SoilVolumeHandlers::Recorder() const {
 }
 
 void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request,
-                                        v1::EstimateVolumeResponse* response, CallRecord& record) {
+                                        v1::EstimateVolumeResponse* response,
+                                        std::optional<LoadLink> load, CallRecord& record) {
     if (!Records(request)) return;
     v1::Estimate kept;
     *kept.mutable_create_time() = NowTimestamp();
@@ -58,12 +59,17 @@ void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request
     row.request_id = request.request_id();
     row.registration_id = response->registration_id();
     row.payload = kept.SerializeAsString();
+    row.load = std::move(load);
     // The dispatcher hands the completion over once the handler returned, so the response
     // is no longer written on the worker when the commit sets its id.
     record.finish_later = [recorder = recorder_, row = std::move(row),
                            answer = response](std::function<void(absl::Status)> finish) mutable {
         recorder->RecordAsync(
             std::move(row), [answer, finish = std::move(finish)](absl::StatusOr<std::int64_t> id) {
+                if (absl::IsFailedPrecondition(id.status()) || absl::IsNotFound(id.status())) {
+                    finish(id.status());  // its load refused it (closed, or gone) meanwhile
+                    return;
+                }
                 if (!id.ok()) {
                     finish(absl::UnavailableError(absl::StrCat(
                         "the estimate could not be recorded (retry, or set skip_record): ",

@@ -17,4 +17,8 @@
     X(ListEstimates, ListEstimatesRequest, ListEstimatesResponse)             \
     X(DeleteContainer, DeleteContainerRequest, DeleteContainerResponse)       \
     X(EstimateVolume, EstimateVolumeRequest, EstimateVolumeResponse)          \
+    X(CreateLoad, CreateLoadRequest, Load)                                    \
+    X(GetLoad, GetLoadRequest, Load)                                          \
+    X(ListLoads, ListLoadsRequest, ListLoadsResponse)                         \
+    X(CloseLoad, CloseLoadRequest, Load)                                      \
     X(GetServerInfo, GetServerInfoRequest, ServerInfo)

@@ -14,6 +14,7 @@
 #include "core/pipeline/estimator.hpp"
 #include "core/pipeline/registration.hpp"
 #include "core/stereo/reconstructor.hpp"
+#include "core/volume/load_totals.hpp"
 #include "server/handlers/call_record.hpp"
 #include "server/records/estimate_feed.hpp"
 #include "server/records/recorder.hpp"
@@ -36,6 +37,8 @@ struct HandlerOptions {
     double capacity_warning_share = 0.01;
     /// What one registration's mesh may hold (MeshBudgetFor the largest message).
     io::MeshBudget mesh_budget;
+    /// An open load with no pass for this long is closed (--load-idle-seconds); 0: never.
+    std::int64_t load_idle_us = 30LL * 60 * 1'000'000;
 };
 
 /// The RPCs of soilvol.v1.SoilVolume over proto messages, free of any transport: the gRPC
@@ -76,6 +79,14 @@ class SoilVolumeHandlers {
                              CallRecord& record);
     absl::Status ListEstimates(const v1::ListEstimatesRequest& request,
                                v1::ListEstimatesResponse* response, CallRecord& record);
+
+    absl::Status CreateLoad(const v1::CreateLoadRequest& request, v1::Load* response,
+                            CallRecord& record);
+    absl::Status GetLoad(const v1::GetLoadRequest& request, v1::Load* response, CallRecord& record);
+    absl::Status ListLoads(const v1::ListLoadsRequest& request, v1::ListLoadsResponse* response,
+                           CallRecord& record);
+    absl::Status CloseLoad(const v1::CloseLoadRequest& request, v1::Load* response,
+                           CallRecord& record);
 
     /// WatchEstimates, free of any transport: `deliver` gets each record as the API message
     /// (null for a heartbeat; false ends the watch), `ended` why the server ended it. The
@@ -180,11 +191,27 @@ class SoilVolumeHandlers {
     /// included) when Records(request): the call is answered, with the record's id, once the
     /// record is committed (CallRecord::finish_later; the worker does not wait for it).
     void RecordEstimate(const v1::EstimateVolumeRequest& request,
-                        v1::EstimateVolumeResponse* response, CallRecord& record);
+                        v1::EstimateVolumeResponse* response, std::optional<LoadLink> load,
+                        CallRecord& record);
     /// The registration ListEstimates shows (RecordQuery::registration_id; "" = every one).
     absl::StatusOr<std::string> RegistrationFilter(const v1::ListEstimatesRequest& request);
     /// The recorder, or FailedPrecondition when records are off.
     absl::StatusOr<EstimateRecorder*> Recorder() const;
+    /// The records' store, which keeps the loads, or FailedPrecondition when records are off.
+    absl::StatusOr<RecordStore*> LoadStore() const;
+    /// What an EstimateVolume naming a load is to it (none without load_id), checked before
+    /// the work: NotFound for no such load, FailedPrecondition for a pass to a closed load or
+    /// without a record. Sets the response's load_id and load_role.
+    absl::StatusOr<std::optional<LoadLink>> LoadLinkOf(const v1::EstimateVolumeRequest& request,
+                                                       v1::EstimateVolumeResponse* response) const;
+    /// The API message of each load in `rows` into outs[i], its figures from its records.
+    absl::Status BuildLoads(const std::vector<LoadRecord>& rows, std::vector<v1::Load*> outs) const;
+    /// The API message of `row` (as it stands at now_us) from `records`, its passes and body
+    /// scans oldest first.
+    absl::Status BuildLoad(const LoadRecord& row, const std::vector<const EstimateRecord*>& records,
+                           std::int64_t now_us, v1::Load* out) const;
+    /// The assessment of `totals` against the load's targets, or its body container's.
+    void AssessTotals(const volume::LoadTotals& totals, v1::Load* out) const;
 
     static absl::StatusOr<CalibrationEntry> DecodeCalibration(const StoredEntry& entry);
     static absl::StatusOr<ContainerEntry> DecodeContainer(const StoredEntry& entry);

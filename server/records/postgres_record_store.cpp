@@ -1,5 +1,7 @@
+#include <algorithm>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <pqxx/pqxx>
 
 #include "absl/strings/str_cat.h"
@@ -22,7 +24,35 @@ CREATE INDEX IF NOT EXISTS soilvol_estimates_by_time ON soilvol_estimates (creat
 ALTER TABLE soilvol_estimates ADD COLUMN IF NOT EXISTS registration_id TEXT NOT NULL DEFAULT '';
 CREATE INDEX IF NOT EXISTS soilvol_estimates_by_registration
     ON soilvol_estimates (container_id, registration_id, id);
+ALTER TABLE soilvol_estimates ADD COLUMN IF NOT EXISTS load_id TEXT NOT NULL DEFAULT '';
+ALTER TABLE soilvol_estimates ADD COLUMN IF NOT EXISTS load_role INTEGER NOT NULL DEFAULT 0;
+CREATE INDEX IF NOT EXISTS soilvol_estimates_by_load
+    ON soilvol_estimates (load_id, id) WHERE load_id <> '';
+CREATE TABLE IF NOT EXISTS soilvol_loads (
+    seq BIGSERIAL PRIMARY KEY,
+    load_id TEXT NOT NULL UNIQUE,
+    haul_unit_id TEXT NOT NULL,
+    body_container_id TEXT NOT NULL,
+    state INTEGER NOT NULL,
+    close_reason INTEGER NOT NULL,
+    create_time_us BIGINT NOT NULL,
+    update_time_us BIGINT NOT NULL,
+    close_time_us BIGINT NOT NULL,
+    last_activity_us BIGINT NOT NULL,
+    revision BIGINT NOT NULL,
+    request_id TEXT NOT NULL,
+    payload BYTEA NOT NULL);
+CREATE UNIQUE INDEX IF NOT EXISTS soilvol_loads_open_by_haul_unit
+    ON soilvol_loads (haul_unit_id) WHERE state = 1;
+CREATE INDEX IF NOT EXISTS soilvol_loads_by_haul_unit ON soilvol_loads (haul_unit_id, seq);
 )sql";
+
+constexpr const char* kPgLoadColumns =
+    "seq, load_id, haul_unit_id, body_container_id, state, close_reason, create_time_us, "
+    "update_time_us, close_time_us, last_activity_us, revision, request_id, payload";
+
+constexpr const char* kRecordColumns =
+    "id, container_id, create_time_us, request_id, registration_id, load_id, load_role";
 
 /// Taken by every inserting transaction: ids are drawn and committed one transaction at a
 /// time, so that across replicas a record committed later always has a larger id (a watcher
@@ -46,9 +76,71 @@ EstimateRecord RecordFrom(const pqxx::row& row, bool with_payload) {
     record.create_time_us = row[2].as<std::int64_t>();
     record.request_id = row[3].as<std::string>();
     record.registration_id = row[4].as<std::string>();
-    if (with_payload) record.payload = pqxx::binarystring(row[5]).str();
+    if (const std::string load_id = row[5].as<std::string>(); !load_id.empty()) {
+        record.load = LoadLink{load_id, row[6].as<int>(), 0};
+    }
+    if (with_payload) record.payload = pqxx::binarystring(row[7]).str();
     return record;
 }
+
+LoadRecord PgLoadFrom(const pqxx::row& row) {
+    LoadRecord load;
+    load.seq = row[0].as<std::int64_t>();
+    load.load_id = row[1].as<std::string>();
+    load.haul_unit_id = row[2].as<std::string>();
+    load.body_container_id = row[3].as<std::string>();
+    load.state = row[4].as<int>();
+    load.close_reason = row[5].as<int>();
+    load.create_time_us = row[6].as<std::int64_t>();
+    load.update_time_us = row[7].as<std::int64_t>();
+    load.close_time_us = row[8].as<std::int64_t>();
+    load.last_activity_us = row[9].as<std::int64_t>();
+    load.revision = row[10].as<std::int64_t>();
+    load.request_id = row[11].as<std::string>();
+    load.payload = pqxx::binarystring(row[12]).str();
+    return load;
+}
+
+/// The load `load_id`, locked for this transaction's changes; none when there is no such load.
+std::optional<LoadRecord> PgReadLoad(pqxx::work& work, const std::string& load_id) {
+    const pqxx::result rows =
+        work.exec_params(absl::StrCat("SELECT ", kPgLoadColumns,
+                                      " FROM soilvol_loads WHERE load_id = $1 FOR UPDATE"),
+                         load_id);
+    if (rows.empty()) return std::nullopt;
+    return PgLoadFrom(rows[0]);
+}
+
+void PgWriteLoadState(pqxx::work& work, const LoadRecord& load) {
+    work.exec_params(
+        "UPDATE soilvol_loads SET state = $2, close_reason = $3, update_time_us = $4, "
+        "close_time_us = $5, last_activity_us = $6, revision = $7 WHERE load_id = $1",
+        load.load_id, load.state, load.close_reason, load.update_time_us, load.close_time_us,
+        load.last_activity_us, load.revision);
+}
+
+/// Whether `record` may join its load (see RecordStore::Append), the load's state written
+/// when it changes.
+absl::Status PgJoinLoad(pqxx::work& work, const EstimateRecord& record) {
+    const LoadLink& link = *record.load;
+    std::optional<LoadRecord> load = PgReadLoad(work, link.load_id);
+    if (!load)
+        return absl::NotFoundError(absl::StrCat("load_id: load '", link.load_id, "' not found"));
+    const bool idled = ApplyIdleClose(*load, record.create_time_us, link.idle_us);
+    absl::Status join = CheckJoin(*load, link);
+    if (join.ok()) {
+        load->update_time_us = std::max(load->update_time_us, record.create_time_us);
+        if (link.role == LoadLink::kPass) load->last_activity_us = record.create_time_us;
+        ++load->revision;
+    }
+    if (join.ok() || idled) PgWriteLoadState(work, *load);
+    return join;
+}
+
+/// A refusal from inside a transaction (the transaction rolls back, the status is returned).
+struct LoadError {
+    absl::Status status;
+};
 
 class PostgresRecordStore final : public RecordStore {
   public:
@@ -62,12 +154,19 @@ class PostgresRecordStore final : public RecordStore {
         absl::Status status = Run("append", [&records](pqxx::work& work) {
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             for (EstimateRecord& record : records) {
+                record.id = 0;
+                if (record.load) {
+                    record.rejected = PgJoinLoad(work, record);
+                    if (!record.rejected.ok()) continue;
+                }
                 const pqxx::binarystring payload(record.payload.data(), record.payload.size());
                 const pqxx::result id = work.exec_params(
                     "INSERT INTO soilvol_estimates (container_id, create_time_us, request_id, "
-                    "payload, registration_id) VALUES ($1, $2, $3, $4, $5) RETURNING id",
+                    "payload, registration_id, load_id, load_role) VALUES ($1, $2, $3, $4, $5, "
+                    "$6, $7) RETURNING id",
                     record.container_id, record.create_time_us, record.request_id, payload,
-                    record.registration_id);
+                    record.registration_id, record.load ? record.load->load_id : std::string(),
+                    record.load ? record.load->role : 0);
                 record.id = id[0][0].as<std::int64_t>();
             }
         });
@@ -80,10 +179,11 @@ class PostgresRecordStore final : public RecordStore {
     absl::StatusOr<EstimateRecord> Get(const std::string& container_id, std::int64_t id) override {
         std::optional<EstimateRecord> found;
         SOILVOL_RETURN_IF_ERROR(Run("get", [&](pqxx::work& work) {
-            const pqxx::result rows = work.exec_params(
-                "SELECT id, container_id, create_time_us, request_id, registration_id, payload "
-                "FROM soilvol_estimates WHERE id = $1 AND container_id = $2",
-                id, container_id);
+            const pqxx::result rows =
+                work.exec_params(absl::StrCat("SELECT ", kRecordColumns,
+                                              ", payload FROM soilvol_estimates WHERE "
+                                              "id = $1 AND container_id = $2"),
+                                 id, container_id);
             if (!rows.empty()) found = RecordFrom(rows[0], true);
         }));
         if (!found) {
@@ -96,8 +196,7 @@ class PostgresRecordStore final : public RecordStore {
     absl::StatusOr<std::vector<EstimateRecord>> List(const RecordQuery& query) override {
         const bool ascending = query.after_id.has_value();
         const std::string sql = absl::StrCat(
-            "SELECT id, container_id, create_time_us, request_id, registration_id",
-            query.with_payload ? ", payload" : "",
+            "SELECT ", kRecordColumns, query.with_payload ? ", payload" : "",
             " FROM soilvol_estimates WHERE id > $1 AND id < $2 AND create_time_us >= $3 AND "
             "create_time_us < $4 AND ($5 = '' OR container_id = $5) AND ($7 = '' OR "
             "registration_id = $7) ORDER BY id ",
@@ -125,6 +224,8 @@ class PostgresRecordStore final : public RecordStore {
             deleted +=
                 work.exec_params("DELETE FROM soilvol_estimates WHERE create_time_us < $1", oldest)
                     .affected_rows();
+            work.exec_params("DELETE FROM soilvol_loads WHERE update_time_us < $1 AND state = 2",
+                             oldest);
             if (!containers) {
                 deleted += work.exec_params(
                                    "DELETE FROM soilvol_estimates WHERE id IN (SELECT id FROM "
@@ -158,6 +259,105 @@ class PostgresRecordStore final : public RecordStore {
         return deleted;
     }
 
+    absl::Status CreateLoad(LoadRecord& load, std::int64_t idle_us) override {
+        return Run("create a load", [&](pqxx::work& work) {
+            work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
+            if (PgReadLoad(work, load.load_id)) {
+                throw LoadError{absl::AlreadyExistsError(
+                    absl::StrCat("load_id: load '", load.load_id, "' already exists"))};
+            }
+            const pqxx::result open = work.exec_params(
+                absl::StrCat(
+                    "SELECT ", kPgLoadColumns,
+                    " FROM soilvol_loads WHERE haul_unit_id = $1 AND state = 1 FOR UPDATE"),
+                load.haul_unit_id);
+            if (!open.empty()) {
+                LoadRecord previous = PgLoadFrom(open[0]);
+                CloseLoadAt(previous, LoadRecord::kNewLoad, load.create_time_us, idle_us);
+                PgWriteLoadState(work, previous);
+            }
+            const pqxx::binarystring payload(load.payload.data(), load.payload.size());
+            const pqxx::result seq = work.exec_params(
+                "INSERT INTO soilvol_loads (load_id, haul_unit_id, body_container_id, state, "
+                "close_reason, create_time_us, update_time_us, close_time_us, last_activity_us, "
+                "revision, request_id, payload) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, "
+                "$11, $12) RETURNING seq",
+                load.load_id, load.haul_unit_id, load.body_container_id, load.state,
+                load.close_reason, load.create_time_us, load.update_time_us, load.close_time_us,
+                load.last_activity_us, load.revision, load.request_id, payload);
+            load.seq = seq[0][0].as<std::int64_t>();
+        });
+    }
+
+    absl::StatusOr<LoadRecord> GetLoad(const std::string& load_id) override {
+        std::optional<LoadRecord> found;
+        SOILVOL_RETURN_IF_ERROR(Run("read a load", [&](pqxx::work& work) {
+            const pqxx::result rows = work.exec_params(
+                absl::StrCat("SELECT ", kPgLoadColumns, " FROM soilvol_loads WHERE load_id = $1"),
+                load_id);
+            if (!rows.empty()) found = PgLoadFrom(rows[0]);
+        }));
+        if (!found) return absl::NotFoundError(absl::StrCat("load '", load_id, "' not found"));
+        return *std::move(found);
+    }
+
+    absl::StatusOr<std::vector<LoadRecord>> ListLoads(const LoadQuery& query) override {
+        const std::string state_filter =
+            query.state == LoadRecord::kOpen     ? " AND state = 1 AND last_activity_us >= $3"
+            : query.state == LoadRecord::kClosed ? " AND (state = 2 OR last_activity_us < $3)"
+                                                 : " AND $3::BIGINT IS NOT NULL";
+        const std::string sql =
+            absl::StrCat("SELECT ", kPgLoadColumns,
+                         " FROM soilvol_loads WHERE seq < $1 AND ($2 = '' OR haul_unit_id = $2)",
+                         state_filter, " ORDER BY seq DESC LIMIT $4");
+        std::vector<LoadRecord> out;
+        SOILVOL_RETURN_IF_ERROR(Run("list loads", [&](pqxx::work& work) {
+            const pqxx::result rows = work.exec_params(
+                sql, query.before_seq.value_or(std::numeric_limits<std::int64_t>::max()),
+                query.haul_unit_id, query.open_since_us, static_cast<std::int64_t>(query.limit));
+            for (const pqxx::row& row : rows) out.push_back(PgLoadFrom(row));
+        }));
+        return out;
+    }
+
+    absl::StatusOr<LoadRecord> CloseLoad(const std::string& load_id, std::int64_t now_us,
+                                         std::int64_t idle_us,
+                                         std::optional<std::int64_t> revision) override {
+        LoadRecord closed;
+        SOILVOL_RETURN_IF_ERROR(Run("close a load", [&](pqxx::work& work) {
+            std::optional<LoadRecord> load = PgReadLoad(work, load_id);
+            if (!load) {
+                throw LoadError{
+                    absl::NotFoundError(absl::StrCat("load '", load_id, "' not found"))};
+            }
+            if (absl::Status current = CheckLoadRevision(*load, revision); !current.ok()) {
+                throw LoadError{current};
+            }
+            if (CloseLoadAt(*load, LoadRecord::kExplicit, now_us, idle_us)) {
+                PgWriteLoadState(work, *load);
+            }
+            closed = *std::move(load);
+        }));
+        return closed;
+    }
+
+    absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
+        const std::vector<std::string>& load_ids) override {
+        std::vector<EstimateRecord> out;
+        if (load_ids.empty()) return out;
+        SOILVOL_RETURN_IF_ERROR(Run("read a load's records", [&](pqxx::work& work) {
+            for (const std::string& load_id : load_ids) {
+                const pqxx::result rows = work.exec_params(
+                    absl::StrCat("SELECT ", kRecordColumns,
+                                 ", payload FROM soilvol_estimates "
+                                 "WHERE load_id = $1 AND load_id <> '' ORDER BY id"),
+                    load_id);
+                for (const pqxx::row& row : rows) out.push_back(RecordFrom(row, true));
+            }
+        }));
+        return out;
+    }
+
     const char* kind() const override { return "postgresql"; }
 
   private:
@@ -178,6 +378,8 @@ class PostgresRecordStore final : public RecordStore {
             } catch (const pqxx::broken_connection& e) {
                 connection_.reset();
                 if (attempt > 0) return PgError(e, what);
+            } catch (const LoadError& e) {
+                return e.status;
             } catch (const std::exception& e) {
                 return PgError(e, what);
             }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "server/records/load_record.hpp"
 
 namespace soilvol::server {
 
@@ -24,6 +25,11 @@ struct EstimateRecord {
     /// against; "" for records written before registrations had ids.
     std::string registration_id;
     std::string payload;
+    /// The truck load the estimate belongs to (a pass or a body scan), if any.
+    std::optional<LoadLink> load;
+    /// Set by Append for a record it did not keep (its id stays 0): FailedPrecondition for a
+    /// pass to a closed load, NotFound for a load that does not exist.
+    absl::Status rejected;
 };
 
 /// Which records a List returns.
@@ -56,7 +62,9 @@ class RecordStore {
 
     /// Commits `records` in one transaction and sets their ids (in vector order). When it
     /// returns OK the records are durable: they survive the process being killed, and (SQLite
-    /// synchronous=FULL; PostgreSQL's fsync) the machine losing power.
+    /// synchronous=FULL; PostgreSQL's fsync) the machine losing power. A record with a load
+    /// joins it in the same transaction (CheckJoin, after ApplyIdleClose at its time, which is
+    /// kept): one that may not is left out with `rejected` set, the others are kept.
     virtual absl::Status Append(std::vector<EstimateRecord>& records) = 0;
 
     virtual absl::StatusOr<EstimateRecord> Get(const std::string& container_id,
@@ -77,6 +85,23 @@ class RecordStore {
     /// Deletes every record of `container_id` (DeleteContainer with purge_records); the number
     /// deleted.
     virtual absl::StatusOr<std::int64_t> DeleteContainer(const std::string& container_id) = 0;
+
+    /// Creates `load` (sets its seq) and, in the same transaction, closes its haul unit's open
+    /// load (kNewLoad, or kIdle when it was idle for idle_us by then). AlreadyExists when its
+    /// id is taken.
+    virtual absl::Status CreateLoad(LoadRecord& load, std::int64_t idle_us) = 0;
+    /// NotFound when there is none.
+    virtual absl::StatusOr<LoadRecord> GetLoad(const std::string& load_id) = 0;
+    virtual absl::StatusOr<std::vector<LoadRecord>> ListLoads(const LoadQuery& query) = 0;
+    /// Closes an open load (kExplicit at now_us, or kIdle when it was idle for idle_us by
+    /// then); a closed one is returned as it is. When `revision` is set the load must be at
+    /// it (Aborted otherwise). NotFound when there is none.
+    virtual absl::StatusOr<LoadRecord> CloseLoad(const std::string& load_id, std::int64_t now_us,
+                                                 std::int64_t idle_us,
+                                                 std::optional<std::int64_t> revision) = 0;
+    /// Every record of these loads (with payloads and their LoadLink), oldest first.
+    virtual absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
+        const std::vector<std::string>& load_ids) = 0;
 
     /// "sqlite" or "postgresql", for logs and metrics.
     virtual const char* kind() const = 0;

@@ -105,15 +105,20 @@ void EstimateRecorder::Run() {
             ++stats_.batches;
             committed_total_ += records.size();
             if (status.ok()) {
-                stats_.records += records.size();
-                newest_ = std::max(newest_, records.back().id);
+                for (const EstimateRecord& record : records) {
+                    if (record.id == 0) continue;  // rejected by its load
+                    ++stats_.records;
+                    newest_ = std::max(newest_, record.id);
+                }
             } else {
                 stats_.failures += records.size();
             }
         }
         committed_.notify_all();  // watchers first: the record is there for them to read
         for (std::size_t i = 0; i < batch.size(); ++i) {
-            if (status.ok()) {
+            if (status.ok() && !records[i].rejected.ok()) {
+                batch[i].committed(records[i].rejected);
+            } else if (status.ok()) {
                 batch[i].committed(records[i].id);
             } else {
                 batch[i].committed(status);
@@ -125,7 +130,9 @@ void EstimateRecorder::Run() {
         }
         committed_.notify_all();
         if (status.ok()) {
-            for (const EstimateRecord& record : records) touched_.insert(record.container_id);
+            for (const EstimateRecord& record : records) {
+                if (record.id != 0) touched_.insert(record.container_id);
+            }
         }
         if (std::chrono::steady_clock::now() - last_prune_ >= config_.prune_every) Prune(false);
         lock.lock();

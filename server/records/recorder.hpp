@@ -40,9 +40,9 @@ class EstimateRecorder {
     using Committed = std::function<void(absl::StatusOr<std::int64_t>)>;
 
     /// Queues `record`; `committed` gets its id once its batch is committed, or the store's
-    /// error, on the recorder's thread (keep it short: the next batch waits for it). Waits
-    /// only while max_queued records are queued. After the recorder stopped, `committed`
-    /// gets UNAVAILABLE at once.
+    /// error, or why the store left it out (EstimateRecord::rejected), on the recorder's thread
+    /// (keep it short: the next batch waits for it). Waits only while max_queued records are
+    /// queued. After the recorder stopped, `committed` gets UNAVAILABLE at once.
     void RecordAsync(EstimateRecord record, Committed committed);
     /// Queues `record` and waits until its batch is committed: its id, or the store's error.
     absl::StatusOr<std::int64_t> Record(EstimateRecord record);

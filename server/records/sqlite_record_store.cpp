@@ -1,6 +1,8 @@
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <mutex>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
@@ -21,12 +23,36 @@ CREATE TABLE IF NOT EXISTS estimates (
     registration_id TEXT NOT NULL DEFAULT '');
 CREATE INDEX IF NOT EXISTS estimates_by_container ON estimates (container_id, id);
 CREATE INDEX IF NOT EXISTS estimates_by_time ON estimates (create_time_us);
+CREATE TABLE IF NOT EXISTS loads (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT,
+    load_id TEXT NOT NULL UNIQUE,
+    haul_unit_id TEXT NOT NULL,
+    body_container_id TEXT NOT NULL,
+    state INTEGER NOT NULL,
+    close_reason INTEGER NOT NULL,
+    create_time_us INTEGER NOT NULL,
+    update_time_us INTEGER NOT NULL,
+    close_time_us INTEGER NOT NULL,
+    last_activity_us INTEGER NOT NULL,
+    revision INTEGER NOT NULL,
+    request_id TEXT NOT NULL,
+    payload BLOB NOT NULL);
+CREATE UNIQUE INDEX IF NOT EXISTS loads_open_by_haul_unit ON loads (haul_unit_id) WHERE state = 1;
+CREATE INDEX IF NOT EXISTS loads_by_haul_unit ON loads (haul_unit_id, seq);
 )sql";
 
-// Databases made before records named their registration gain the column (older records: '').
-constexpr const char* kSqliteRegistrations = R"sql(
+// Columns added since the first schema: older databases gain them (their records: '' / 0).
+constexpr std::pair<const char*, const char*> kAddedColumns[] = {
+    {"registration_id",
+     "ALTER TABLE estimates ADD COLUMN registration_id TEXT NOT NULL DEFAULT ''"},
+    {"load_id", "ALTER TABLE estimates ADD COLUMN load_id TEXT NOT NULL DEFAULT ''"},
+    {"load_role", "ALTER TABLE estimates ADD COLUMN load_role INTEGER NOT NULL DEFAULT 0"},
+};
+
+constexpr const char* kSqliteAddedIndexes = R"sql(
 CREATE INDEX IF NOT EXISTS estimates_by_registration
     ON estimates (container_id, registration_id, id);
+CREATE INDEX IF NOT EXISTS estimates_by_load ON estimates (load_id, id) WHERE load_id != '';
 )sql";
 
 absl::Status SqliteError(sqlite3* db, int code, const char* what) {
@@ -102,11 +128,37 @@ EstimateRecord RecordFrom(const Statement& row, bool with_payload) {
     record.create_time_us = row.Int(2);
     record.request_id = row.Text(3);
     record.registration_id = row.Text(4);
-    if (with_payload) record.payload = row.Text(5);
+    if (!row.Text(5).empty()) {
+        record.load = LoadLink{row.Text(5), static_cast<int>(row.Int(6)), 0};
+    }
+    if (with_payload) record.payload = row.Text(7);
     return record;
 }
 
-constexpr const char* kColumns = "id, container_id, create_time_us, request_id, registration_id";
+constexpr const char* kColumns =
+    "id, container_id, create_time_us, request_id, registration_id, load_id, load_role";
+
+constexpr const char* kLoadColumns =
+    "seq, load_id, haul_unit_id, body_container_id, state, close_reason, create_time_us, "
+    "update_time_us, close_time_us, last_activity_us, revision, request_id, payload";
+
+LoadRecord LoadFrom(const Statement& row) {
+    LoadRecord load;
+    load.seq = row.Int(0);
+    load.load_id = row.Text(1);
+    load.haul_unit_id = row.Text(2);
+    load.body_container_id = row.Text(3);
+    load.state = static_cast<int>(row.Int(4));
+    load.close_reason = static_cast<int>(row.Int(5));
+    load.create_time_us = row.Int(6);
+    load.update_time_us = row.Int(7);
+    load.close_time_us = row.Int(8);
+    load.last_activity_us = row.Int(9);
+    load.revision = row.Int(10);
+    load.request_id = row.Text(11);
+    load.payload = row.Text(12);
+    return load;
+}
 
 class SqliteRecordStore final : public RecordStore {
   public:
@@ -118,24 +170,130 @@ class SqliteRecordStore final : public RecordStore {
             SOILVOL_RETURN_IF_ERROR(Exec(pragma));
         }
         SOILVOL_RETURN_IF_ERROR(Exec(kSqliteSchema));
-        SOILVOL_ASSIGN_OR_RETURN(const bool has_column, HasRegistrationColumn());
-        if (!has_column) {
-            SOILVOL_RETURN_IF_ERROR(
-                Exec("ALTER TABLE estimates ADD COLUMN registration_id TEXT NOT NULL DEFAULT ''"));
+        for (const auto& [column, alter] : kAddedColumns) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool has_column, HasColumn(column));
+            if (!has_column) SOILVOL_RETURN_IF_ERROR(Exec(alter));
         }
-        return Exec(kSqliteRegistrations);
+        return Exec(kSqliteAddedIndexes);
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {
         std::lock_guard<std::mutex> lock(mutex_);
-        SOILVOL_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE"));
-        absl::Status status = Insert(records);
-        if (status.ok()) status = Exec("COMMIT");
+        const absl::Status status = InTransaction([&] { return Insert(records); });
         if (!status.ok()) {
-            Exec("ROLLBACK").IgnoreError();
             for (EstimateRecord& record : records) record.id = 0;
         }
         return status;
+    }
+
+    absl::Status CreateLoad(LoadRecord& load, std::int64_t idle_us) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return InTransaction([&]() -> absl::Status {
+            SOILVOL_ASSIGN_OR_RETURN(std::optional<LoadRecord> taken, ReadLoad(load.load_id));
+            if (taken) {
+                return absl::AlreadyExistsError(
+                    absl::StrCat("load_id: load '", load.load_id, "' already exists"));
+            }
+            Statement open(db_, absl::StrCat("SELECT ", kLoadColumns,
+                                             " FROM loads WHERE haul_unit_id = ?1 AND state = 1"));
+            SOILVOL_RETURN_IF_ERROR(open.Prepared("find the open load"));
+            open.Bind(1, load.haul_unit_id);
+            SOILVOL_ASSIGN_OR_RETURN(const bool found, open.Step("find the open load"));
+            if (found) {
+                LoadRecord previous = LoadFrom(open);
+                CloseLoadAt(previous, LoadRecord::kNewLoad, load.create_time_us, idle_us);
+                SOILVOL_RETURN_IF_ERROR(WriteLoadState(previous));
+            }
+            Statement insert(db_,
+                             "INSERT INTO loads (load_id, haul_unit_id, body_container_id, state, "
+                             "close_reason, create_time_us, update_time_us, close_time_us, "
+                             "last_activity_us, revision, request_id, payload) VALUES (?1, ?2, "
+                             "?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
+            SOILVOL_RETURN_IF_ERROR(insert.Prepared("create a load"));
+            insert.Bind(1, load.load_id);
+            insert.Bind(2, load.haul_unit_id);
+            insert.Bind(3, load.body_container_id);
+            insert.Bind(4, std::int64_t{load.state});
+            insert.Bind(5, std::int64_t{load.close_reason});
+            insert.Bind(6, load.create_time_us);
+            insert.Bind(7, load.update_time_us);
+            insert.Bind(8, load.close_time_us);
+            insert.Bind(9, load.last_activity_us);
+            insert.Bind(10, load.revision);
+            insert.Bind(11, load.request_id);
+            insert.BindBlob(12, load.payload);
+            SOILVOL_RETURN_IF_ERROR(insert.Step("create a load").status());
+            load.seq = sqlite3_last_insert_rowid(db_);
+            return absl::OkStatus();
+        });
+    }
+
+    absl::StatusOr<LoadRecord> GetLoad(const std::string& load_id) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        SOILVOL_ASSIGN_OR_RETURN(std::optional<LoadRecord> load, ReadLoad(load_id));
+        if (!load) return absl::NotFoundError(absl::StrCat("load '", load_id, "' not found"));
+        return *std::move(load);
+    }
+
+    absl::StatusOr<std::vector<LoadRecord>> ListLoads(const LoadQuery& query) override {
+        std::string sql = absl::StrCat("SELECT ", kLoadColumns, " FROM loads WHERE seq < ?1");
+        if (!query.haul_unit_id.empty()) sql += " AND haul_unit_id = ?2";
+        if (query.state == LoadRecord::kOpen) sql += " AND state = 1 AND last_activity_us >= ?3";
+        if (query.state == LoadRecord::kClosed) sql += " AND (state = 2 OR last_activity_us < ?3)";
+        sql += " ORDER BY seq DESC LIMIT ?4";
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, sql);
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("list loads"));
+        select.Bind(1, query.before_seq.value_or(std::numeric_limits<std::int64_t>::max()));
+        if (!query.haul_unit_id.empty()) select.Bind(2, query.haul_unit_id);
+        select.Bind(3, query.open_since_us);
+        select.Bind(4, static_cast<std::int64_t>(query.limit));
+        std::vector<LoadRecord> out;
+        while (true) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("list loads"));
+            if (!row) break;
+            out.push_back(LoadFrom(select));
+        }
+        return out;
+    }
+
+    absl::StatusOr<LoadRecord> CloseLoad(const std::string& load_id, std::int64_t now_us,
+                                         std::int64_t idle_us,
+                                         std::optional<std::int64_t> revision) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        LoadRecord closed;
+        const absl::Status done = InTransaction([&]() -> absl::Status {
+            SOILVOL_ASSIGN_OR_RETURN(std::optional<LoadRecord> load, ReadLoad(load_id));
+            if (!load) return absl::NotFoundError(absl::StrCat("load '", load_id, "' not found"));
+            SOILVOL_RETURN_IF_ERROR(CheckLoadRevision(*load, revision));
+            if (CloseLoadAt(*load, LoadRecord::kExplicit, now_us, idle_us)) {
+                SOILVOL_RETURN_IF_ERROR(WriteLoadState(*load));
+            }
+            closed = *std::move(load);
+            return absl::OkStatus();
+        });
+        SOILVOL_RETURN_IF_ERROR(done);
+        return closed;
+    }
+
+    absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
+        const std::vector<std::string>& load_ids) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, absl::StrCat("SELECT ", kColumns,
+                                           ", payload FROM estimates WHERE "
+                                           "load_id = ?1 AND load_id != '' ORDER BY id"));
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("read a load's records"));
+        std::vector<EstimateRecord> out;
+        for (const std::string& load_id : load_ids) {
+            select.Bind(1, load_id);
+            while (true) {
+                SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("read a load's records"));
+                if (!row) break;
+                out.push_back(RecordFrom(select, true));
+            }
+            select.Reset();
+        }
+        return out;
     }
 
     absl::StatusOr<EstimateRecord> Get(const std::string& container_id, std::int64_t id) override {
@@ -192,6 +350,12 @@ class SqliteRecordStore final : public RecordStore {
             now_us - std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count());
         SOILVOL_RETURN_IF_ERROR(old.Step("prune by age").status());
         std::int64_t deleted = sqlite3_changes(db_);
+        Statement old_loads(db_, "DELETE FROM loads WHERE update_time_us < ?1 AND state = 2");
+        SOILVOL_RETURN_IF_ERROR(old_loads.Prepared("prune loads by age"));
+        old_loads.Bind(
+            1,
+            now_us - std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count());
+        SOILVOL_RETURN_IF_ERROR(old_loads.Step("prune loads by age").status());
         if (!containers) {
             Statement surplus(db_,
                               "DELETE FROM estimates WHERE id IN (SELECT id FROM (SELECT id, "
@@ -229,12 +393,69 @@ class SqliteRecordStore final : public RecordStore {
     const char* kind() const override { return "sqlite"; }
 
   private:
-    absl::StatusOr<bool> HasRegistrationColumn() {
-        Statement columns(db_,
-                          "SELECT 1 FROM pragma_table_info('estimates') WHERE name = "
-                          "'registration_id'");
+    absl::StatusOr<bool> HasColumn(const char* name) {
+        Statement columns(db_, "SELECT 1 FROM pragma_table_info('estimates') WHERE name = ?1");
         SOILVOL_RETURN_IF_ERROR(columns.Prepared("read the schema"));
+        columns.Bind(1, std::string(name));
         return columns.Step("read the schema");
+    }
+
+    /// Runs `body` in a write transaction (BEGIN IMMEDIATE: writers one at a time across
+    /// processes), committed when it returns OK and rolled back otherwise.
+    template <typename Body>
+    absl::Status InTransaction(Body body) {
+        SOILVOL_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE"));
+        absl::Status status = body();
+        if (status.ok()) status = Exec("COMMIT");
+        if (!status.ok()) Exec("ROLLBACK").IgnoreError();
+        return status;
+    }
+
+    absl::StatusOr<std::optional<LoadRecord>> ReadLoad(const std::string& load_id) {
+        Statement select(db_,
+                         absl::StrCat("SELECT ", kLoadColumns, " FROM loads WHERE load_id = ?1"));
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("read a load"));
+        select.Bind(1, load_id);
+        SOILVOL_ASSIGN_OR_RETURN(const bool found, select.Step("read a load"));
+        if (!found) return std::optional<LoadRecord>();
+        return std::optional<LoadRecord>(LoadFrom(select));
+    }
+
+    /// Writes what changes of a load after its create (state, times, revision).
+    absl::Status WriteLoadState(const LoadRecord& load) {
+        Statement update(db_,
+                         "UPDATE loads SET state = ?2, close_reason = ?3, update_time_us = ?4, "
+                         "close_time_us = ?5, last_activity_us = ?6, revision = ?7 WHERE "
+                         "load_id = ?1");
+        SOILVOL_RETURN_IF_ERROR(update.Prepared("update a load"));
+        update.Bind(1, load.load_id);
+        update.Bind(2, std::int64_t{load.state});
+        update.Bind(3, std::int64_t{load.close_reason});
+        update.Bind(4, load.update_time_us);
+        update.Bind(5, load.close_time_us);
+        update.Bind(6, load.last_activity_us);
+        update.Bind(7, load.revision);
+        return update.Step("update a load").status();
+    }
+
+    /// Whether `record` may join its load (see Append), the load's state written when it
+    /// changes.
+    absl::StatusOr<absl::Status> JoinLoad(const EstimateRecord& record) {
+        const LoadLink& link = *record.load;
+        SOILVOL_ASSIGN_OR_RETURN(std::optional<LoadRecord> load, ReadLoad(link.load_id));
+        if (!load) {
+            return absl::NotFoundError(
+                absl::StrCat("load_id: load '", link.load_id, "' not found"));
+        }
+        const bool idled = ApplyIdleClose(*load, record.create_time_us, link.idle_us);
+        absl::Status join = CheckJoin(*load, link);
+        if (join.ok()) {
+            load->update_time_us = std::max(load->update_time_us, record.create_time_us);
+            if (link.role == LoadLink::kPass) load->last_activity_us = record.create_time_us;
+            ++load->revision;
+        }
+        if (join.ok() || idled) SOILVOL_RETURN_IF_ERROR(WriteLoadState(*load));
+        return join;
     }
 
     absl::Status Exec(const char* sql) {
@@ -247,9 +468,19 @@ class SqliteRecordStore final : public RecordStore {
     absl::Status Insert(std::vector<EstimateRecord>& records) {
         Statement insert(db_,
                          "INSERT INTO estimates (container_id, create_time_us, request_id, "
-                         "payload, registration_id) VALUES (?1, ?2, ?3, ?4, ?5)");
+                         "payload, registration_id, load_id, load_role) VALUES (?1, ?2, ?3, ?4, "
+                         "?5, ?6, ?7)");
         SOILVOL_RETURN_IF_ERROR(insert.Prepared("insert"));
         for (EstimateRecord& record : records) {
+            if (record.load) {
+                SOILVOL_ASSIGN_OR_RETURN(record.rejected, JoinLoad(record));
+                if (!record.rejected.ok()) continue;
+                insert.Bind(6, record.load->load_id);
+                insert.Bind(7, std::int64_t{record.load->role});
+            } else {
+                insert.Bind(6, std::string());
+                insert.Bind(7, std::int64_t{0});
+            }
             insert.Bind(1, record.container_id);
             insert.Bind(2, record.create_time_us);
             insert.Bind(3, record.request_id);

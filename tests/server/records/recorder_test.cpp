@@ -148,6 +148,23 @@ class DownStore final : public RecordStore {
     absl::StatusOr<std::int64_t> DeleteContainer(const std::string&) override {
         return absl::UnavailableError("connection refused");
     }
+    absl::Status CreateLoad(LoadRecord&, std::int64_t) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<LoadRecord> GetLoad(const std::string&) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::vector<LoadRecord>> ListLoads(const LoadQuery&) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<LoadRecord> CloseLoad(const std::string&, std::int64_t, std::int64_t,
+                                         std::optional<std::int64_t>) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
+        const std::vector<std::string>&) override {
+        return absl::UnavailableError("connection refused");
+    }
     const char* kind() const override { return "down"; }
     std::atomic<int> appends{0};
 };

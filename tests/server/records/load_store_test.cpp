@@ -1,0 +1,193 @@
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+
+#include "server/records/load_record.hpp"
+#include "server/records/record_store.hpp"
+#include "test_databases.hpp"
+
+namespace soilvol::server {
+namespace {
+
+constexpr std::int64_t kMinute = 60'000'000;
+
+LoadRecord NewLoad(const std::string& id, const std::string& haul_unit, std::int64_t time_us) {
+    LoadRecord load;
+    load.load_id = id;
+    load.haul_unit_id = haul_unit;
+    load.body_container_id = "body";
+    load.create_time_us = load.update_time_us = load.last_activity_us = time_us;
+    load.request_id = "req-" + id;
+    load.payload = std::string("client\0fields", 13);
+    return load;
+}
+
+EstimateRecord Pass(const std::string& load_id, std::int64_t time_us, int role = LoadLink::kPass,
+                    std::int64_t idle_us = 0) {
+    EstimateRecord record;
+    record.container_id = role == LoadLink::kPass ? "bucket" : "body";
+    record.create_time_us = time_us;
+    record.payload = "p";
+    record.load = LoadLink{load_id, role, idle_us};
+    return record;
+}
+
+class LoadStoreTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(LoadStoreTest, CreateGetAndANewLoadClosesTheHaulUnitsOpenOne) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    LoadRecord first = NewLoad("l-1", "truck-7", kMinute);
+    ASSERT_TRUE(store->CreateLoad(first, 0).ok());
+    EXPECT_GT(first.seq, 0);
+    LoadRecord taken = NewLoad("l-1", "truck-8", kMinute);
+    EXPECT_TRUE(absl::IsAlreadyExists(store->CreateLoad(taken, 0)));
+
+    absl::StatusOr<LoadRecord> got = store->GetLoad("l-1");
+    ASSERT_TRUE(got.ok()) << got.status();
+    EXPECT_EQ(got->payload, first.payload);  // bytes, NULs included
+    EXPECT_EQ(got->state, LoadRecord::kOpen);
+    EXPECT_EQ(got->revision, 1);
+
+    LoadRecord second = NewLoad("l-2", "truck-7", 3 * kMinute);
+    ASSERT_TRUE(store->CreateLoad(second, 0).ok());
+    got = store->GetLoad("l-1");
+    ASSERT_TRUE(got.ok());
+    EXPECT_EQ(got->state, LoadRecord::kClosed);
+    EXPECT_EQ(got->close_reason, LoadRecord::kNewLoad);
+    EXPECT_EQ(got->close_time_us, 3 * kMinute);
+    EXPECT_EQ(got->revision, 2);
+    EXPECT_TRUE(absl::IsNotFound(store->GetLoad("l-3").status()));
+}
+
+TEST_P(LoadStoreTest, PassesJoinOpenLoadsOnlyBodyScansAnyLoad) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    LoadRecord load = NewLoad("l-1", "truck-7", kMinute);
+    ASSERT_TRUE(store->CreateLoad(load, 0).ok());
+    std::vector<EstimateRecord> batch = {Pass("l-1", 2 * kMinute), Pass("l-1", 3 * kMinute),
+                                         Pass("nope", 3 * kMinute)};
+    ASSERT_TRUE(store->Append(batch).ok());
+    EXPECT_GT(batch[0].id, 0);
+    EXPECT_GT(batch[1].id, batch[0].id);
+    EXPECT_EQ(batch[2].id, 0);
+    EXPECT_TRUE(absl::IsNotFound(batch[2].rejected)) << batch[2].rejected;
+
+    const absl::StatusOr<LoadRecord> closed = store->CloseLoad("l-1", 4 * kMinute, 0, 3);
+    ASSERT_TRUE(closed.ok()) << closed.status();
+    EXPECT_EQ(closed->close_reason, LoadRecord::kExplicit);
+    EXPECT_EQ(closed->last_activity_us, 3 * kMinute);
+    // Closing again returns it as it is; a stale etag is refused.
+    EXPECT_EQ(store->CloseLoad("l-1", 5 * kMinute, 0, std::nullopt)->close_time_us, 4 * kMinute);
+    EXPECT_TRUE(absl::IsAborted(store->CloseLoad("l-1", 5 * kMinute, 0, 3).status()));
+
+    std::vector<EstimateRecord> late = {Pass("l-1", 5 * kMinute),
+                                        Pass("l-1", 6 * kMinute, LoadLink::kBodyScan)};
+    ASSERT_TRUE(store->Append(late).ok());
+    EXPECT_EQ(late[0].id, 0);
+    EXPECT_TRUE(absl::IsFailedPrecondition(late[0].rejected)) << late[0].rejected;
+    EXPECT_GT(late[1].id, 0);
+
+    const auto records = store->LoadEstimates({"l-1", "l-2"});
+    ASSERT_TRUE(records.ok()) << records.status();
+    ASSERT_EQ(records->size(), 3u);
+    EXPECT_EQ((*records)[0].id, batch[0].id);
+    EXPECT_EQ((*records)[2].load->role, LoadLink::kBodyScan);
+    EXPECT_EQ((*records)[2].payload, "p");
+}
+
+TEST_P(LoadStoreTest, AnIdleLoadClosesAtItsLastPassPlusTheIdleTime) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    const std::int64_t idle = 10 * kMinute;
+    LoadRecord load = NewLoad("l-1", "truck-7", 0);
+    ASSERT_TRUE(store->CreateLoad(load, idle).ok());
+    std::vector<EstimateRecord> passes = {Pass("l-1", 5 * kMinute, LoadLink::kPass, idle),
+                                          Pass("l-1", 14 * kMinute, LoadLink::kPass, idle),
+                                          Pass("l-1", 25 * kMinute, LoadLink::kPass, idle)};
+    ASSERT_TRUE(store->Append(passes).ok());
+    EXPECT_GT(passes[1].id, 0);  // 9 minutes after the last: still open
+    EXPECT_TRUE(absl::IsFailedPrecondition(passes[2].rejected));  // 11 minutes after
+    const absl::StatusOr<LoadRecord> got = store->GetLoad("l-1");
+    ASSERT_TRUE(got.ok());
+    EXPECT_EQ(got->close_reason, LoadRecord::kIdle);
+    EXPECT_EQ(got->close_time_us, 24 * kMinute);
+
+    // Listing by state counts an idle open load as closed.
+    LoadRecord other = NewLoad("l-2", "truck-8", 30 * kMinute);
+    ASSERT_TRUE(store->CreateLoad(other, idle).ok());
+    LoadQuery open;
+    open.state = LoadRecord::kOpen;
+    open.open_since_us = 45 * kMinute - idle;
+    EXPECT_TRUE(store->ListLoads(open)->empty());
+    open.open_since_us = 35 * kMinute - idle;
+    ASSERT_EQ(store->ListLoads(open)->size(), 1u);
+    LoadQuery closed;
+    closed.state = LoadRecord::kClosed;
+    closed.open_since_us = 45 * kMinute - idle;
+    EXPECT_EQ(store->ListLoads(closed)->size(), 2u);
+}
+
+TEST_P(LoadStoreTest, ListsNewestFirstByHaulUnitInPages) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    for (int i = 0; i < 5; ++i) {
+        LoadRecord load = NewLoad("l-" + std::to_string(i), i % 2 == 0 ? "even" : "odd", i);
+        ASSERT_TRUE(store->CreateLoad(load, 0).ok());
+    }
+    LoadQuery query;
+    query.haul_unit_id = "even";
+    query.limit = 2;
+    auto page = store->ListLoads(query);
+    ASSERT_TRUE(page.ok()) << page.status();
+    ASSERT_EQ(page->size(), 2u);
+    EXPECT_EQ((*page)[0].load_id, "l-4");
+    EXPECT_EQ((*page)[1].load_id, "l-2");
+    query.before_seq = page->back().seq;
+    page = store->ListLoads(query);
+    ASSERT_EQ(page->size(), 1u);
+    EXPECT_EQ((*page)[0].load_id, "l-0");
+    // Of a haul unit, only the newest is open.
+    EXPECT_EQ((*page)[0].state, LoadRecord::kClosed);
+}
+
+TEST_P(LoadStoreTest, ConcurrentCreatesLeaveOneOpenLoadPerHaulUnit) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto first = db.Open();
+    auto second = db.Open();  // two replicas
+    ASSERT_NE(first, nullptr);
+    ASSERT_NE(second, nullptr);
+    std::atomic<int> failed{0};
+    auto creator = [&](RecordStore* store, const std::string& prefix) {
+        for (int i = 0; i < 20; ++i) {
+            LoadRecord load = NewLoad(prefix + std::to_string(i), "truck-7", i);
+            if (!store->CreateLoad(load, 0).ok()) ++failed;
+        }
+    };
+    std::thread a(creator, first.get(), "a-"), b(creator, second.get(), "b-");
+    a.join();
+    b.join();
+    EXPECT_EQ(failed.load(), 0);
+    LoadQuery open;
+    open.state = LoadRecord::kOpen;
+    EXPECT_EQ(first->ListLoads(open)->size(), 1u);
+    LoadQuery all;
+    all.limit = 100;
+    EXPECT_EQ(first->ListLoads(all)->size(), 40u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, LoadStoreTest, ::testing::Values("sqlite", "postgresql"),
+                         [](const auto& param_info) { return param_info.param; });
+
+}  // namespace
+}  // namespace soilvol::server
