@@ -47,6 +47,7 @@ int RunCli(int argc, const char* const* argv) {
     AddEstimateCommand(app, global, &exit_code);
     AddResourceCommands(app, global, &exit_code);
     AddEstimatesCommand(app, global, &exit_code);
+    AddLoadsCommand(app, global, &exit_code);
     AddHealthCommand(app, global, &exit_code);
     AddDemoCommand(app, global, &exit_code);
     try {

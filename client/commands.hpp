@@ -12,6 +12,7 @@ void AddCalibrateCommand(CLI::App& app, const GlobalOptions& global, int* exit_c
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddEstimateCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddEstimatesCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
+void AddLoadsCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddResourceCommands(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddHealthCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);

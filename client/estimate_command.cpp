@@ -17,6 +17,7 @@ struct EstimateOptions {
     std::string method;  ///< heightmap, paper, or empty for the server's default
     double density_kg_m3 = 0.0;
     std::string request_id;
+    std::string load;
 };
 
 int RunEstimate(const EstimateOptions& options, bool has_cell, bool has_density,
@@ -27,6 +28,7 @@ int RunEstimate(const EstimateOptions& options, bool has_cell, bool has_density,
                        : options.method == "heightmap" ? v1::ESTIMATION_METHOD_HEIGHTMAP
                                                        : v1::ESTIMATION_METHOD_UNSPECIFIED);
     request.set_request_id(options.request_id);
+    request.set_load_id(options.load);
     if (has_cell) request.set_grid_cell_m(options.cell_m);
     if (has_density) request.set_material_density_kg_m3(options.density_kg_m3);
     absl::StatusOr<v1::Scan> scan = BuildScan(options.scan);
@@ -61,6 +63,8 @@ void AddEstimateCommand(CLI::App& app, const GlobalOptions& global, int* exit_co
                                      "material density [kg/m^3]: report the mass")
                         ->check(CLI::PositiveNumber);
     command->add_option("--request-id", options->request_id, "echoed in the response");
+    command->add_option("--load", options->load,
+                        "the truck load this scan is a pass of (or the body scan of)");
     command->callback([options, cell, density, &global, exit_code] {
         *exit_code = RunEstimate(*options, cell->count() > 0, density->count() > 0, global);
     });

@@ -165,6 +165,11 @@ void PrintEstimate(const v1::EstimateVolumeResponse& e, bool json, std::ostream&
     fields.push_back(
         {"estimate id", e.estimate_id().empty() ? "none (not recorded)" : e.estimate_id()});
     if (!e.request_id().empty()) fields.push_back({"request id", e.request_id()});
+    if (!e.load_id().empty()) {
+        fields.push_back(
+            {"load", absl::StrCat(e.load_id(), " (",
+                                  EnumLabel(v1::LoadRole_Name(e.load_role()), "LOAD_ROLE_"), ")")});
+    }
     fields.insert(
         fields.end(),
         {{"method", EnumLabel(v1::EstimationMethod_Name(e.method()), "ESTIMATION_METHOD_")},

@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 15> kMethodScopes = {{
+constexpr std::array<MethodScope, 19> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -38,6 +38,11 @@ constexpr std::array<MethodScope, 15> kMethodScopes = {{
     {"EstimateVolume", Scope::kEstimate},
     {"StreamEstimates", Scope::kEstimate},
     {"GetServerInfo", Scope::kRead},
+    // Loads are the fleet's day, as estimates are: a dispatcher opens and closes them.
+    {"CreateLoad", Scope::kEstimate},
+    {"CloseLoad", Scope::kEstimate},
+    {"GetLoad", Scope::kRead},
+    {"ListLoads", Scope::kRead},
 }};
 
 // "Bearer <token>" (the scheme in any case, RFC 7235); "" when the header is something else.

@@ -13,9 +13,9 @@
 
 namespace soilvol::server {
 
-/// The scope each RPC of soilvol.v1.SoilVolume needs: get and list need `read`, estimates
-/// `estimate`, what creates or deletes `admin`. NotFound for a method this table lacks (a test
-/// holds it to the service descriptor).
+/// The scope each RPC of soilvol.v1.SoilVolume needs: get and list need `read`, estimates and
+/// opening or closing truck loads `estimate`, what registers, calibrates or deletes `admin`.
+/// NotFound for a method this table lacks (a test holds it to the service descriptor).
 absl::StatusOr<Scope> RequiredScope(std::string_view method);
 
 struct AuthOptions {

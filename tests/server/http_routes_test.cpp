@@ -44,6 +44,10 @@ TEST(HttpRoutes, AnnotationsGiveTheDocumentedContract) {
         "GET /v1/estimates:watch WatchEstimates",
         "POST /v1/containers/{container_id}:estimate EstimateVolume",
         "GET /v1/info GetServerInfo",
+        "POST /v1/loads CreateLoad",
+        "GET /v1/loads/{load_id} GetLoad",
+        "GET /v1/loads ListLoads",
+        "POST /v1/loads/{load_id}:close CloseLoad",
     };
     EXPECT_EQ(got, expected);
 }
