@@ -50,6 +50,7 @@ int RunCli(int argc, const char* const* argv) {
     AddLoadsCommand(app, global, &exit_code);
     AddHealthCommand(app, global, &exit_code);
     AddDemoCommand(app, global, &exit_code);
+    AddShiftDemoCommand(app, global, &exit_code);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -16,5 +16,6 @@ void AddLoadsCommand(CLI::App& app, const GlobalOptions& global, int* exit_code)
 void AddResourceCommands(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddHealthCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
+void AddShiftDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 
 }  // namespace soilvol::client
