@@ -1,5 +1,7 @@
 #include "server/records/load_record.hpp"
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
 #include "server/base/status_map.hpp"
 
@@ -34,6 +36,19 @@ absl::Status CheckLoadRevision(const LoadRecord& load, std::optional<std::int64_
         absl::AbortedError(absl::StrCat("etag: load '", load.load_id,
                                         "' has changed since that etag was read; read it again")),
         "ETAG_MISMATCH");
+}
+
+JoinedLoad JoinLoadRecord(LoadRecord& load, const LoadLink& link, std::int64_t time_us) {
+    load.update_time_us = std::max(load.update_time_us, time_us);
+    ++load.revision;
+    JoinedLoad joined;
+    joined.haul_unit_id = load.haul_unit_id;
+    joined.body_scan = link.role == LoadLink::kBodyScan;
+    if (!joined.body_scan) {
+        load.last_activity_us = time_us;
+        joined.first_pass = ++load.passes == 1;
+    }
+    return joined;
 }
 
 absl::Status CheckJoin(const LoadRecord& load, const LoadLink& link) {

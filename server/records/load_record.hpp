@@ -28,6 +28,7 @@ struct LoadRecord {
     /// The create or the last pass: what the idle time counts from.
     std::int64_t last_activity_us = 0;
     std::int64_t revision = 1;  ///< +1 at every change (the etag)
+    std::int64_t passes = 0;    ///< passes that joined it
     std::string request_id;
     std::string payload;
 };
@@ -56,6 +57,17 @@ struct LoadLink {
 /// record's time by ApplyIdleClose): a body scan always, a pass only to an open load;
 /// FailedPrecondition naming load_id otherwise.
 absl::Status CheckJoin(const LoadRecord& load, const LoadLink& link);
+
+/// What a record that joined its load brings to production.
+struct JoinedLoad {
+    std::string haul_unit_id;  ///< "" for a record of no load
+    bool first_pass = false;
+    bool body_scan = false;  ///< its soil was counted in the passes: not production
+};
+
+/// `load` after a record linked by `link` at `time_us` joined it (CheckJoin passed): its
+/// update time, last activity (a pass), revision and passes moved on; what the record brings.
+JoinedLoad JoinLoadRecord(LoadRecord& load, const LoadLink& link, std::int64_t time_us);
 
 /// Which loads a ListLoads returns, newest first.
 struct LoadQuery {

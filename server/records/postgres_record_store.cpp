@@ -40,8 +40,25 @@ CREATE TABLE IF NOT EXISTS soilvol_loads (
     close_time_us BIGINT NOT NULL,
     last_activity_us BIGINT NOT NULL,
     revision BIGINT NOT NULL,
+    passes BIGINT NOT NULL,
     request_id TEXT NOT NULL,
     payload BYTEA NOT NULL);
+CREATE TABLE IF NOT EXISTS soilvol_production (
+    bucket_us BIGINT NOT NULL,
+    container_id TEXT NOT NULL,
+    haul_unit_id TEXT NOT NULL,
+    material TEXT NOT NULL,
+    passes BIGINT NOT NULL,
+    loads BIGINT NOT NULL,
+    volume_m3 DOUBLE PRECISION NOT NULL,
+    bank_volume_m3 DOUBLE PRECISION NOT NULL,
+    mass_kg DOUBLE PRECISION NOT NULL,
+    mass_passes BIGINT NOT NULL,
+    fill_ratio_sum DOUBLE PRECISION NOT NULL,
+    status_0 BIGINT NOT NULL, status_1 BIGINT NOT NULL, status_2 BIGINT NOT NULL,
+    status_3 BIGINT NOT NULL, status_4 BIGINT NOT NULL, status_5 BIGINT NOT NULL,
+    status_6 BIGINT NOT NULL,
+    PRIMARY KEY (bucket_us, container_id, haul_unit_id, material));
 CREATE UNIQUE INDEX IF NOT EXISTS soilvol_loads_open_by_haul_unit
     ON soilvol_loads (haul_unit_id) WHERE state = 1;
 CREATE INDEX IF NOT EXISTS soilvol_loads_by_haul_unit ON soilvol_loads (haul_unit_id, seq);
@@ -49,7 +66,7 @@ CREATE INDEX IF NOT EXISTS soilvol_loads_by_haul_unit ON soilvol_loads (haul_uni
 
 constexpr const char* kPgLoadColumns =
     "seq, load_id, haul_unit_id, body_container_id, state, close_reason, create_time_us, "
-    "update_time_us, close_time_us, last_activity_us, revision, request_id, payload";
+    "update_time_us, close_time_us, last_activity_us, revision, request_id, payload, passes";
 
 constexpr const char* kRecordColumns =
     "id, container_id, create_time_us, request_id, registration_id, load_id, load_role";
@@ -98,7 +115,37 @@ LoadRecord PgLoadFrom(const pqxx::row& row) {
     load.revision = row[10].as<std::int64_t>();
     load.request_id = row[11].as<std::string>();
     load.payload = pqxx::binarystring(row[12]).str();
+    load.passes = row[13].as<std::int64_t>();
     return load;
+}
+
+ProductionCell PgCellFrom(const pqxx::row& row) {
+    ProductionCell cell;
+    cell.bucket_us = row[0].as<std::int64_t>();
+    cell.container_id = row[1].as<std::string>();
+    cell.haul_unit_id = row[2].as<std::string>();
+    cell.material = row[3].as<std::string>();
+    cell.passes = row[4].as<std::int64_t>();
+    cell.loads = row[5].as<std::int64_t>();
+    cell.volume_m3 = row[6].as<double>();
+    cell.bank_volume_m3 = row[7].as<double>();
+    cell.mass_kg = row[8].as<double>();
+    cell.mass_passes = row[9].as<std::int64_t>();
+    cell.fill_ratio_sum = row[10].as<double>();
+    for (int i = 0; i < ProductionCell::kStatuses; ++i) {
+        cell.statuses[i] = row[11 + i].as<std::int64_t>();
+    }
+    return cell;
+}
+
+void PgAddProduction(pqxx::work& work, const EstimateRecord& record, const JoinedLoad& joined) {
+    const ProductionCell c = CellOf(record.measures, record.container_id, joined.haul_unit_id,
+                                    record.create_time_us, joined.first_pass);
+    const auto& s = c.statuses;
+    work.exec_params(ProductionUpsertSql("soilvol_production", '$'), c.bucket_us, c.container_id,
+                     c.haul_unit_id, c.material, c.passes, c.loads, c.volume_m3, c.bank_volume_m3,
+                     c.mass_kg, c.mass_passes, c.fill_ratio_sum, s[0], s[1], s[2], s[3], s[4], s[5],
+                     s[6]);
 }
 
 /// The load `load_id`, locked for this transaction's changes; none when there is no such load.
@@ -114,25 +161,21 @@ std::optional<LoadRecord> PgReadLoad(pqxx::work& work, const std::string& load_i
 void PgWriteLoadState(pqxx::work& work, const LoadRecord& load) {
     work.exec_params(
         "UPDATE soilvol_loads SET state = $2, close_reason = $3, update_time_us = $4, "
-        "close_time_us = $5, last_activity_us = $6, revision = $7 WHERE load_id = $1",
+        "close_time_us = $5, last_activity_us = $6, revision = $7, passes = $8 WHERE load_id = $1",
         load.load_id, load.state, load.close_reason, load.update_time_us, load.close_time_us,
-        load.last_activity_us, load.revision);
+        load.last_activity_us, load.revision, load.passes);
 }
 
 /// Whether `record` may join its load (see RecordStore::Append), the load's state written
-/// when it changes.
-absl::Status PgJoinLoad(pqxx::work& work, const EstimateRecord& record) {
+/// when it changes; sets `joined`.
+absl::Status PgJoinLoad(pqxx::work& work, const EstimateRecord& record, JoinedLoad* joined) {
     const LoadLink& link = *record.load;
     std::optional<LoadRecord> load = PgReadLoad(work, link.load_id);
     if (!load)
         return absl::NotFoundError(absl::StrCat("load_id: load '", link.load_id, "' not found"));
     const bool idled = ApplyIdleClose(*load, record.create_time_us, link.idle_us);
     absl::Status join = CheckJoin(*load, link);
-    if (join.ok()) {
-        load->update_time_us = std::max(load->update_time_us, record.create_time_us);
-        if (link.role == LoadLink::kPass) load->last_activity_us = record.create_time_us;
-        ++load->revision;
-    }
+    if (join.ok()) *joined = JoinLoadRecord(*load, link, record.create_time_us);
     if (join.ok() || idled) PgWriteLoadState(work, *load);
     return join;
 }
@@ -155,8 +198,9 @@ class PostgresRecordStore final : public RecordStore {
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             for (EstimateRecord& record : records) {
                 record.id = 0;
+                JoinedLoad joined;
                 if (record.load) {
-                    record.rejected = PgJoinLoad(work, record);
+                    record.rejected = PgJoinLoad(work, record, &joined);
                     if (!record.rejected.ok()) continue;
                 }
                 const pqxx::binarystring payload(record.payload.data(), record.payload.size());
@@ -168,6 +212,7 @@ class PostgresRecordStore final : public RecordStore {
                     record.registration_id, record.load ? record.load->load_id : std::string(),
                     record.load ? record.load->role : 0);
                 record.id = id[0][0].as<std::int64_t>();
+                if (!joined.body_scan) PgAddProduction(work, record, joined);
             }
         });
         if (!status.ok()) {
@@ -255,6 +300,8 @@ class PostgresRecordStore final : public RecordStore {
             deleted = work.exec_params("DELETE FROM soilvol_estimates WHERE container_id = $1",
                                        container_id)
                           .affected_rows();
+            work.exec_params("DELETE FROM soilvol_production WHERE container_id = $1",
+                             container_id);
         }));
         return deleted;
     }
@@ -280,8 +327,8 @@ class PostgresRecordStore final : public RecordStore {
             const pqxx::result seq = work.exec_params(
                 "INSERT INTO soilvol_loads (load_id, haul_unit_id, body_container_id, state, "
                 "close_reason, create_time_us, update_time_us, close_time_us, last_activity_us, "
-                "revision, request_id, payload) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, "
-                "$11, $12) RETURNING seq",
+                "revision, request_id, payload, passes) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, "
+                "$9, $10, $11, $12, 0) RETURNING seq",
                 load.load_id, load.haul_unit_id, load.body_container_id, load.state,
                 load.close_reason, load.create_time_us, load.update_time_us, load.close_time_us,
                 load.last_activity_us, load.revision, load.request_id, payload);
@@ -339,6 +386,18 @@ class PostgresRecordStore final : public RecordStore {
             closed = *std::move(load);
         }));
         return closed;
+    }
+
+    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t start_us,
+                                                                std::int64_t end_us) override {
+        std::vector<ProductionCell> out;
+        SOILVOL_RETURN_IF_ERROR(Run("read production", [&](pqxx::work& work) {
+            const pqxx::result rows =
+                work.exec_params(ProductionSelectSql("soilvol_production", '$'), start_us, end_us);
+            out.reserve(rows.size());
+            for (const pqxx::row& row : rows) out.push_back(PgCellFrom(row));
+        }));
+        return out;
     }
 
     absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(

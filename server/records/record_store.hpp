@@ -11,6 +11,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/records/load_record.hpp"
+#include "server/records/production.hpp"
 
 namespace soilvol::server {
 
@@ -27,6 +28,8 @@ struct EstimateRecord {
     std::string payload;
     /// The truck load the estimate belongs to (a pass or a body scan), if any.
     std::optional<LoadLink> load;
+    /// What it adds to production (written, not read back).
+    Measures measures;
     /// Set by Append for a record it did not keep (its id stays 0): FailedPrecondition for a
     /// pass to a closed load, NotFound for a load that does not exist.
     absl::Status rejected;
@@ -99,6 +102,13 @@ class RecordStore {
     virtual absl::StatusOr<LoadRecord> CloseLoad(const std::string& load_id, std::int64_t now_us,
                                                  std::int64_t idle_us,
                                                  std::optional<std::int64_t> revision) = 0;
+    /// The production rollup's cells with a bucket in [start_us, end_us): every record the
+    /// store kept since the rollup existed but a load's body scan, summed by 15-minute bucket,
+    /// container, haul unit (its load's; "" for none) and material, in the transaction that
+    /// kept it. Retention does not prune it (production outlives the records); purging a
+    /// container's records purges its cells.
+    virtual absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t start_us,
+                                                                        std::int64_t end_us) = 0;
     /// Every record of these loads (with payloads and their LoadLink), oldest first.
     virtual absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
         const std::vector<std::string>& load_ids) = 0;

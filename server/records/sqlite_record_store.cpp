@@ -35,8 +35,25 @@ CREATE TABLE IF NOT EXISTS loads (
     close_time_us INTEGER NOT NULL,
     last_activity_us INTEGER NOT NULL,
     revision INTEGER NOT NULL,
+    passes INTEGER NOT NULL,
     request_id TEXT NOT NULL,
     payload BLOB NOT NULL);
+CREATE TABLE IF NOT EXISTS production (
+    bucket_us INTEGER NOT NULL,
+    container_id TEXT NOT NULL,
+    haul_unit_id TEXT NOT NULL,
+    material TEXT NOT NULL,
+    passes INTEGER NOT NULL,
+    loads INTEGER NOT NULL,
+    volume_m3 REAL NOT NULL,
+    bank_volume_m3 REAL NOT NULL,
+    mass_kg REAL NOT NULL,
+    mass_passes INTEGER NOT NULL,
+    fill_ratio_sum REAL NOT NULL,
+    status_0 INTEGER NOT NULL, status_1 INTEGER NOT NULL, status_2 INTEGER NOT NULL,
+    status_3 INTEGER NOT NULL, status_4 INTEGER NOT NULL, status_5 INTEGER NOT NULL,
+    status_6 INTEGER NOT NULL,
+    PRIMARY KEY (bucket_us, container_id, haul_unit_id, material)) WITHOUT ROWID;
 CREATE UNIQUE INDEX IF NOT EXISTS loads_open_by_haul_unit ON loads (haul_unit_id) WHERE state = 1;
 CREATE INDEX IF NOT EXISTS loads_by_haul_unit ON loads (haul_unit_id, seq);
 )sql";
@@ -108,7 +125,9 @@ class Statement {
         sqlite3_reset(stmt_);
         sqlite3_clear_bindings(stmt_);
     }
+    void Bind(int index, double value) { sqlite3_bind_double(stmt_, index, value); }
     std::int64_t Int(int column) const { return sqlite3_column_int64(stmt_, column); }
+    double Real(int column) const { return sqlite3_column_double(stmt_, column); }
     std::string Text(int column) const {
         const void* data = sqlite3_column_blob(stmt_, column);
         const int size = sqlite3_column_bytes(stmt_, column);
@@ -140,7 +159,7 @@ constexpr const char* kColumns =
 
 constexpr const char* kLoadColumns =
     "seq, load_id, haul_unit_id, body_container_id, state, close_reason, create_time_us, "
-    "update_time_us, close_time_us, last_activity_us, revision, request_id, payload";
+    "update_time_us, close_time_us, last_activity_us, revision, request_id, payload, passes";
 
 LoadRecord LoadFrom(const Statement& row) {
     LoadRecord load;
@@ -157,7 +176,25 @@ LoadRecord LoadFrom(const Statement& row) {
     load.revision = row.Int(10);
     load.request_id = row.Text(11);
     load.payload = row.Text(12);
+    load.passes = row.Int(13);
     return load;
+}
+
+ProductionCell CellFrom(const Statement& row) {
+    ProductionCell cell;
+    cell.bucket_us = row.Int(0);
+    cell.container_id = row.Text(1);
+    cell.haul_unit_id = row.Text(2);
+    cell.material = row.Text(3);
+    cell.passes = row.Int(4);
+    cell.loads = row.Int(5);
+    cell.volume_m3 = row.Real(6);
+    cell.bank_volume_m3 = row.Real(7);
+    cell.mass_kg = row.Real(8);
+    cell.mass_passes = row.Int(9);
+    cell.fill_ratio_sum = row.Real(10);
+    for (int i = 0; i < ProductionCell::kStatuses; ++i) cell.statuses[i] = row.Int(11 + i);
+    return cell;
 }
 
 class SqliteRecordStore final : public RecordStore {
@@ -207,8 +244,8 @@ class SqliteRecordStore final : public RecordStore {
             Statement insert(db_,
                              "INSERT INTO loads (load_id, haul_unit_id, body_container_id, state, "
                              "close_reason, create_time_us, update_time_us, close_time_us, "
-                             "last_activity_us, revision, request_id, payload) VALUES (?1, ?2, "
-                             "?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
+                             "last_activity_us, revision, request_id, payload, passes) VALUES "
+                             "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, 0)");
             SOILVOL_RETURN_IF_ERROR(insert.Prepared("create a load"));
             insert.Bind(1, load.load_id);
             insert.Bind(2, load.haul_unit_id);
@@ -274,6 +311,22 @@ class SqliteRecordStore final : public RecordStore {
         });
         SOILVOL_RETURN_IF_ERROR(done);
         return closed;
+    }
+
+    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t start_us,
+                                                                std::int64_t end_us) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, ProductionSelectSql("production", '?'));
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("read production"));
+        select.Bind(1, start_us);
+        select.Bind(2, end_us);
+        std::vector<ProductionCell> out;
+        while (true) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("read production"));
+            if (!row) break;
+            out.push_back(CellFrom(select));
+        }
+        return out;
     }
 
     absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
@@ -383,11 +436,20 @@ class SqliteRecordStore final : public RecordStore {
 
     absl::StatusOr<std::int64_t> DeleteContainer(const std::string& container_id) override {
         std::lock_guard<std::mutex> lock(mutex_);
-        Statement purge(db_, "DELETE FROM estimates WHERE container_id = ?1");
-        SOILVOL_RETURN_IF_ERROR(purge.Prepared("delete a container's records"));
-        purge.Bind(1, container_id);
-        SOILVOL_RETURN_IF_ERROR(purge.Step("delete a container's records").status());
-        return static_cast<std::int64_t>(sqlite3_changes(db_));
+        std::int64_t deleted = 0;
+        const absl::Status done = InTransaction([&]() -> absl::Status {
+            Statement purge(db_, "DELETE FROM estimates WHERE container_id = ?1");
+            SOILVOL_RETURN_IF_ERROR(purge.Prepared("delete a container's records"));
+            purge.Bind(1, container_id);
+            SOILVOL_RETURN_IF_ERROR(purge.Step("delete a container's records").status());
+            deleted = sqlite3_changes(db_);
+            Statement cells(db_, "DELETE FROM production WHERE container_id = ?1");
+            SOILVOL_RETURN_IF_ERROR(cells.Prepared("delete a container's production"));
+            cells.Bind(1, container_id);
+            return cells.Step("delete a container's production").status();
+        });
+        SOILVOL_RETURN_IF_ERROR(done);
+        return deleted;
     }
 
     const char* kind() const override { return "sqlite"; }
@@ -425,8 +487,8 @@ class SqliteRecordStore final : public RecordStore {
     absl::Status WriteLoadState(const LoadRecord& load) {
         Statement update(db_,
                          "UPDATE loads SET state = ?2, close_reason = ?3, update_time_us = ?4, "
-                         "close_time_us = ?5, last_activity_us = ?6, revision = ?7 WHERE "
-                         "load_id = ?1");
+                         "close_time_us = ?5, last_activity_us = ?6, revision = ?7, passes = ?8 "
+                         "WHERE load_id = ?1");
         SOILVOL_RETURN_IF_ERROR(update.Prepared("update a load"));
         update.Bind(1, load.load_id);
         update.Bind(2, std::int64_t{load.state});
@@ -435,12 +497,13 @@ class SqliteRecordStore final : public RecordStore {
         update.Bind(5, load.close_time_us);
         update.Bind(6, load.last_activity_us);
         update.Bind(7, load.revision);
+        update.Bind(8, load.passes);
         return update.Step("update a load").status();
     }
 
     /// Whether `record` may join its load (see Append), the load's state written when it
-    /// changes.
-    absl::StatusOr<absl::Status> JoinLoad(const EstimateRecord& record) {
+    /// changes; sets `joined` (the load's haul unit, whether this is its first pass).
+    absl::StatusOr<absl::Status> JoinLoad(const EstimateRecord& record, JoinedLoad* joined) {
         const LoadLink& link = *record.load;
         SOILVOL_ASSIGN_OR_RETURN(std::optional<LoadRecord> load, ReadLoad(link.load_id));
         if (!load) {
@@ -449,11 +512,7 @@ class SqliteRecordStore final : public RecordStore {
         }
         const bool idled = ApplyIdleClose(*load, record.create_time_us, link.idle_us);
         absl::Status join = CheckJoin(*load, link);
-        if (join.ok()) {
-            load->update_time_us = std::max(load->update_time_us, record.create_time_us);
-            if (link.role == LoadLink::kPass) load->last_activity_us = record.create_time_us;
-            ++load->revision;
-        }
+        if (join.ok()) *joined = JoinLoadRecord(*load, link, record.create_time_us);
         if (join.ok() || idled) SOILVOL_RETURN_IF_ERROR(WriteLoadState(*load));
         return join;
     }
@@ -471,9 +530,12 @@ class SqliteRecordStore final : public RecordStore {
                          "payload, registration_id, load_id, load_role) VALUES (?1, ?2, ?3, ?4, "
                          "?5, ?6, ?7)");
         SOILVOL_RETURN_IF_ERROR(insert.Prepared("insert"));
+        Statement upsert(db_, ProductionUpsertSql("production", '?'));
+        SOILVOL_RETURN_IF_ERROR(upsert.Prepared("add to production"));
         for (EstimateRecord& record : records) {
+            JoinedLoad joined;
             if (record.load) {
-                SOILVOL_ASSIGN_OR_RETURN(record.rejected, JoinLoad(record));
+                SOILVOL_ASSIGN_OR_RETURN(record.rejected, JoinLoad(record, &joined));
                 if (!record.rejected.ok()) continue;
                 insert.Bind(6, record.load->load_id);
                 insert.Bind(7, std::int64_t{record.load->role});
@@ -489,7 +551,30 @@ class SqliteRecordStore final : public RecordStore {
             SOILVOL_RETURN_IF_ERROR(insert.Step("insert").status());
             record.id = sqlite3_last_insert_rowid(db_);
             insert.Reset();
+            if (!joined.body_scan) SOILVOL_RETURN_IF_ERROR(AddProduction(upsert, record, joined));
         }
+        return absl::OkStatus();
+    }
+
+    absl::Status AddProduction(Statement& upsert, const EstimateRecord& record,
+                               const JoinedLoad& joined) {
+        const ProductionCell cell =
+            CellOf(record.measures, record.container_id, joined.haul_unit_id, record.create_time_us,
+                   joined.first_pass);
+        upsert.Bind(1, cell.bucket_us);
+        upsert.Bind(2, cell.container_id);
+        upsert.Bind(3, cell.haul_unit_id);
+        upsert.Bind(4, cell.material);
+        upsert.Bind(5, cell.passes);
+        upsert.Bind(6, cell.loads);
+        upsert.Bind(7, cell.volume_m3);
+        upsert.Bind(8, cell.bank_volume_m3);
+        upsert.Bind(9, cell.mass_kg);
+        upsert.Bind(10, cell.mass_passes);
+        upsert.Bind(11, cell.fill_ratio_sum);
+        for (int i = 0; i < ProductionCell::kStatuses; ++i) upsert.Bind(12 + i, cell.statuses[i]);
+        SOILVOL_RETURN_IF_ERROR(upsert.Step("add to production").status());
+        upsert.Reset();
         return absl::OkStatus();
     }
 

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <thread>
 
@@ -184,6 +185,61 @@ TEST_P(LoadStoreTest, ConcurrentCreatesLeaveOneOpenLoadPerHaulUnit) {
     LoadQuery all;
     all.limit = 100;
     EXPECT_EQ(first->ListLoads(all)->size(), 40u);
+}
+
+TEST_P(LoadStoreTest, ProductionRollupSumsTheKeptRecordsButBodyScans) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    LoadRecord load = NewLoad("l-1", "truck-7", 0);
+    ASSERT_TRUE(store->CreateLoad(load, 0).ok());
+    auto measured = [](EstimateRecord record, double volume, int status,
+                       std::optional<double> mass) {
+        record.measures.volume_m3 = volume;
+        record.measures.bank_volume_m3 = volume / 1.25;
+        record.measures.mass_kg = mass;
+        record.measures.fill_ratio = volume / 2.0;
+        record.measures.load_status = status;
+        record.measures.material = "clay";
+        return record;
+    };
+    std::vector<EstimateRecord> batch = {
+        measured(Pass("l-1", kMinute), 1.0, 4, 1600.0),
+        measured(Pass("l-1", 2 * kMinute), 2.0, 5, 3200.0),
+        measured(Pass("l-1", 3 * kMinute, LoadLink::kBodyScan), 3.1, 4, 4960.0),  // not counted
+        measured(Pass("nope", 3 * kMinute), 9.0, 4, 1.0),                         // rejected
+        measured(Pass("", 20 * kMinute), 0.5, 2, std::nullopt)};                  // no load
+    batch[4].load.reset();
+    ASSERT_TRUE(store->Append(batch).ok());
+    auto cells = store->ProductionCells(0, 60 * kMinute);
+    ASSERT_TRUE(cells.ok()) << cells.status();
+    ASSERT_EQ(cells->size(), 2u);
+    std::sort(cells->begin(), cells->end(),
+              [](const auto& a, const auto& b) { return a.bucket_us < b.bucket_us; });
+    const ProductionCell& first = (*cells)[0];
+    EXPECT_EQ(first.bucket_us, 0);
+    EXPECT_EQ(first.container_id, "bucket");
+    EXPECT_EQ(first.haul_unit_id, "truck-7");
+    EXPECT_EQ(first.material, "clay");
+    EXPECT_EQ(first.passes, 2);
+    EXPECT_EQ(first.loads, 1);  // the load's first pass
+    EXPECT_DOUBLE_EQ(first.volume_m3, 3.0);
+    EXPECT_DOUBLE_EQ(first.bank_volume_m3, 2.4);
+    EXPECT_DOUBLE_EQ(first.mass_kg, 4800.0);
+    EXPECT_EQ(first.mass_passes, 2);
+    EXPECT_DOUBLE_EQ(first.fill_ratio_sum, 1.5);
+    EXPECT_EQ(first.statuses[4], 1);
+    EXPECT_EQ(first.statuses[5], 1);
+    const ProductionCell& later = (*cells)[1];
+    EXPECT_EQ(later.bucket_us, 15 * kMinute);
+    EXPECT_EQ(later.haul_unit_id, "");
+    EXPECT_EQ(later.mass_passes, 0);
+    EXPECT_EQ(later.statuses[2], 1);
+    // The range is by bucket; purging the container's records purges its production.
+    EXPECT_EQ(store->ProductionCells(15 * kMinute, 30 * kMinute)->size(), 1u);
+    ASSERT_TRUE(store->DeleteContainer("bucket").ok());
+    EXPECT_TRUE(store->ProductionCells(0, 60 * kMinute)->empty());
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, LoadStoreTest, ::testing::Values("sqlite", "postgresql"),

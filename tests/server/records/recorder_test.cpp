@@ -161,6 +161,10 @@ class DownStore final : public RecordStore {
                                          std::optional<std::int64_t>) override {
         return absl::UnavailableError("connection refused");
     }
+    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t,
+                                                                std::int64_t) override {
+        return absl::UnavailableError("connection refused");
+    }
     absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
         const std::vector<std::string>&) override {
         return absl::UnavailableError("connection refused");

@@ -1,0 +1,212 @@
+#include "server/records/production.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace soilvol::server {
+namespace {
+
+absl::Time TimeOfMicros(std::int64_t us) { return absl::FromUnixMicros(us); }
+std::int64_t MicrosOf(absl::Time t) { return absl::ToUnixMicros(t); }
+
+/// The instant of local civil time `civil` in `zone` (a skipped time: the instant after the
+/// change; a repeated one: its first occurrence).
+absl::Time Instant(const absl::CivilMinute& civil, const absl::TimeZone& zone) {
+    const absl::TimeZone::TimeInfo info = zone.At(civil);
+    return info.kind == absl::TimeZone::TimeInfo::SKIPPED ? info.trans : info.pre;
+}
+
+/// Every boundary of `period` from the local day before `start` to the one after `end`.
+std::vector<std::pair<absl::Time, std::string>> Boundaries(const SiteCalendar& calendar,
+                                                           ProductionPeriod period,
+                                                           absl::Time start, absl::Time end) {
+    const absl::CivilDay first = absl::ToCivilDay(start, calendar.zone) - 1;
+    const absl::CivilDay last = absl::ToCivilDay(end, calendar.zone) + 1;
+    std::vector<std::pair<absl::Time, std::string>> out;
+    for (absl::CivilDay day = first; day <= last; ++day) {
+        const std::string date = absl::FormatCivilTime(day);
+        switch (period) {
+            case ProductionPeriod::kDay:
+                out.push_back({Instant(absl::CivilMinute(day), calendar.zone), date});
+                break;
+            case ProductionPeriod::kShift:
+                for (std::size_t i = 0; i < calendar.shift_starts_min.size(); ++i) {
+                    const int minute = calendar.shift_starts_min[i];
+                    out.push_back({Instant(absl::CivilMinute(day) + minute, calendar.zone),
+                                   absl::StrFormat("%s shift %d (%02d:%02d)", date, i + 1,
+                                                   minute / 60, minute % 60)});
+                }
+                break;
+            case ProductionPeriod::kHour:
+                break;  // below, in absolute time
+        }
+    }
+    if (period == ProductionPeriod::kHour) {
+        // Every quarter hour whose local minute is 0 starts an hour: a clock change back
+        // repeats an hour (two periods, their offsets in the labels), one forward skips one.
+        const absl::Time from = Instant(absl::CivilMinute(first), calendar.zone);
+        const absl::Time to = Instant(absl::CivilMinute(last + 1), calendar.zone);
+        for (absl::Time at = from; at <= to; at += absl::Minutes(15)) {
+            if (absl::ToCivilMinute(at, calendar.zone).minute() != 0) continue;
+            out.push_back({at, absl::FormatTime("%Y-%m-%dT%H:%M%Ez", at, calendar.zone)});
+        }
+    }
+    // Shift starts a clock change skips collapse into the next instant: dropped below.
+    std::stable_sort(out.begin(), out.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    out.erase(std::unique(out.begin(), out.end(),
+                          [](const auto& a, const auto& b) { return a.first == b.first; }),
+              out.end());
+    return out;
+}
+
+}  // namespace
+
+std::int64_t ProductionBucketOf(std::int64_t time_us) {
+    std::int64_t bucket = time_us / kProductionBucketUs;
+    if (time_us % kProductionBucketUs < 0) --bucket;  // floor, also before 1970
+    return bucket * kProductionBucketUs;
+}
+
+ProductionCell CellOf(const Measures& measures, const std::string& container_id,
+                      const std::string& haul_unit_id, std::int64_t time_us, bool first_pass) {
+    ProductionCell cell;
+    cell.bucket_us = ProductionBucketOf(time_us);
+    cell.container_id = container_id;
+    cell.haul_unit_id = haul_unit_id;
+    cell.material = measures.material;
+    cell.passes = 1;
+    cell.loads = first_pass ? 1 : 0;
+    cell.volume_m3 = measures.volume_m3;
+    cell.bank_volume_m3 = measures.bank_volume_m3;
+    cell.mass_kg = measures.mass_kg.value_or(0.0);
+    cell.mass_passes = measures.mass_kg ? 1 : 0;
+    cell.fill_ratio_sum = measures.fill_ratio;
+    cell.statuses[static_cast<std::size_t>(
+        std::clamp(measures.load_status, 0, ProductionCell::kStatuses - 1))] = 1;
+    return cell;
+}
+
+namespace {
+
+constexpr const char* kKeyColumns[] = {"bucket_us", "container_id", "haul_unit_id", "material"};
+constexpr const char* kValueColumns[] = {
+    "passes",      "loads",          "volume_m3", "bank_volume_m3", "mass_kg",
+    "mass_passes", "fill_ratio_sum", "status_0",  "status_1",       "status_2",
+    "status_3",    "status_4",       "status_5",  "status_6"};
+
+}  // namespace
+
+std::string ProductionUpsertSql(const std::string& table, char p) {
+    std::string columns, params, updates;
+    int n = 0;
+    for (const char* column : kKeyColumns) {
+        const char* comma = n == 0 ? "" : ", ";
+        ++n;
+        absl::StrAppend(&columns, comma, column);
+        absl::StrAppend(&params, comma, std::string(1, p), n);
+    }
+    for (const char* column : kValueColumns) {
+        ++n;
+        absl::StrAppend(&columns, ", ", column);
+        absl::StrAppend(&params, ", ", std::string(1, p), n);
+        absl::StrAppend(&updates, updates.empty() ? "" : ", ", column, " = ", table, ".", column,
+                        " + excluded.", column);
+    }
+    return absl::StrCat("INSERT INTO ", table, " (", columns, ") VALUES (", params,
+                        ") ON CONFLICT (bucket_us, container_id, haul_unit_id, material) DO "
+                        "UPDATE SET ",
+                        updates);
+}
+
+std::string ProductionSelectSql(const std::string& table, char p) {
+    std::string columns;
+    for (const char* column : kKeyColumns)
+        absl::StrAppend(&columns, columns.empty() ? "" : ", ", column);
+    for (const char* column : kValueColumns) absl::StrAppend(&columns, ", ", column);
+    return absl::StrCat("SELECT ", columns, " FROM ", table,
+                        " WHERE bucket_us >= ", std::string(1, p), "1 AND bucket_us < ",
+                        std::string(1, p), "2");
+}
+
+absl::StatusOr<std::vector<int>> ParseShiftStarts(const std::vector<std::string>& starts,
+                                                  const char* field) {
+    if (starts.empty() || starts.size() > 12) {
+        return absl::InvalidArgumentError(absl::StrCat(field, ": 1 to 12 shift starts"));
+    }
+    std::vector<int> minutes;
+    for (const std::string& text : starts) {
+        int hours = -1, mins = -1;
+        char extra = 0;
+        const bool parsed =
+            text.size() == 5 && std::sscanf(text.c_str(), "%2d:%2d%c", &hours, &mins, &extra) == 2;
+        if (!parsed || hours < 0 || hours > 23 || mins < 0 || mins > 59 || mins % 15 != 0) {
+            return absl::InvalidArgumentError(absl::StrCat(
+                field, ": '", text, "' is not a local time HH:MM on a quarter hour (06:00)"));
+        }
+        minutes.push_back(hours * 60 + mins);
+    }
+    std::sort(minutes.begin(), minutes.end());
+    if (std::adjacent_find(minutes.begin(), minutes.end()) != minutes.end()) {
+        return absl::InvalidArgumentError(absl::StrCat(field, ": a shift start is repeated"));
+    }
+    return minutes;
+}
+
+absl::StatusOr<std::vector<Period>> MakePeriods(const SiteCalendar& calendar,
+                                                ProductionPeriod period, std::int64_t start_us,
+                                                std::int64_t end_us, std::size_t max_periods) {
+    const auto boundaries =
+        Boundaries(calendar, period, TimeOfMicros(start_us), TimeOfMicros(end_us));
+    std::vector<Period> out;
+    for (std::size_t i = 0; i + 1 < boundaries.size(); ++i) {
+        const std::int64_t from = MicrosOf(boundaries[i].first);
+        const std::int64_t to = MicrosOf(boundaries[i + 1].first);
+        if (to <= start_us || from >= end_us) continue;
+        if (out.size() == max_periods) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("end_time: the range holds more than ", max_periods,
+                             " periods; ask for a shorter range or a longer period"));
+        }
+        out.push_back({from, to, boundaries[i].second});
+    }
+    return out;
+}
+
+std::vector<ProductionRow> SumProduction(
+    const std::vector<ProductionCell>& cells, const std::vector<Period>& periods,
+    const std::function<std::string(const ProductionCell&)>& group_of) {
+    std::map<std::pair<std::size_t, std::string>, ProductionRow> rows;
+    for (const ProductionCell& cell : cells) {
+        // The first period that ends after the cell's start holds it (periods are contiguous
+        // and every boundary falls on a bucket's).
+        const auto found =
+            std::upper_bound(periods.begin(), periods.end(), cell.bucket_us,
+                             [](std::int64_t t, const Period& p) { return t < p.end_us; });
+        if (found == periods.end() || cell.bucket_us < found->start_us) continue;
+        const auto index = static_cast<std::size_t>(found - periods.begin());
+        std::string group = group_of(cell);
+        ProductionRow& row = rows[{index, group}];
+        row.period = index;
+        row.group = std::move(group);
+        row.passes += cell.passes;
+        row.loads += cell.loads;
+        row.mass_passes += cell.mass_passes;
+        row.volume_m3 += cell.volume_m3;
+        row.bank_volume_m3 += cell.bank_volume_m3;
+        row.mass_kg += cell.mass_kg;
+        row.fill_ratio_sum += cell.fill_ratio_sum;
+        for (int s = 0; s < ProductionCell::kStatuses; ++s) row.statuses[s] += cell.statuses[s];
+    }
+    std::vector<ProductionRow> out;
+    out.reserve(rows.size());
+    for (auto& [key, row] : rows) out.push_back(std::move(row));
+    return out;
+}
+
+}  // namespace soilvol::server
