@@ -87,6 +87,15 @@ void AddEngineFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
                    "An open truck load that got no pass for this long is closed (0 = never)")
         ->envname("SOILVOL_LOAD_IDLE_SECONDS")
         ->capture_default_str();
+    app.add_option("--site-time-zone", o.site_time_zone,
+                   "IANA time zone of production's hours, shifts and days (Europe/Berlin)")
+        ->envname("SOILVOL_SITE_TIME_ZONE")
+        ->capture_default_str();
+    app.add_option("--shift-starts", o.shift_starts,
+                   "local shift starts, comma-separated, on quarter hours (06:00,18:00)")
+        ->delimiter(',')
+        ->envname("SOILVOL_SHIFT_STARTS")
+        ->capture_default_str();
 }
 
 /// Logging and browsers.

@@ -7,7 +7,9 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/time.h"
 #include "server/dispatch/cpu_budget.hpp"
+#include "server/records/production.hpp"
 
 namespace soilvol::server {
 namespace {
@@ -74,6 +76,14 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     }
     if (!(o.load_idle_s >= 0.0 && o.load_idle_s <= 7 * 86400.0)) {
         return Invalid("load-idle-seconds", "must be in [0, 604800] (0: never)");
+    }
+    absl::TimeZone zone;
+    if (!absl::LoadTimeZone(o.site_time_zone, &zone)) {
+        return Invalid("site-time-zone", "is not an IANA time zone (Europe/Berlin; tzdata)");
+    }
+    if (absl::Status starts = ParseShiftStarts(o.shift_starts, "shift-starts").status();
+        !starts.ok()) {
+        return Invalid("shift-starts", std::string(starts.message().substr(14)));
     }
     return absl::OkStatus();
 }

@@ -46,6 +46,9 @@ struct ServerOptions {
     double capacity_warning_share = 0.01;
     /// An open truck load that got no pass for this long is closed; 0 = never.
     double load_idle_s = 1800.0;
+    /// Production's default IANA zone and local shift starts.
+    std::string site_time_zone = "UTC";
+    std::vector<std::string> shift_starts = {"06:00", "18:00"};
 
     // Security: TLS (both transports), credentials, what is open.
     std::string tls_cert;          ///< PEM certificate chain; set with tls_key: TLS on both ports

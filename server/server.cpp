@@ -195,6 +195,8 @@ absl::Status MakeServices(ServerParts& p, const google::protobuf::ServiceDescrip
     handling.capacity_warning_share = p.options.capacity_warning_share;
     handling.mesh_budget = MeshBudgetFor(MessageBytes(p.options));
     handling.load_idle_us = static_cast<std::int64_t>(p.options.load_idle_s * 1e6);
+    handling.site_time_zone = p.options.site_time_zone;
+    handling.shift_starts = p.options.shift_starts;
     p.handlers =
         std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get(), handling);
     p.rpcs = MakeRpcTable(*p.handlers);

@@ -453,4 +453,15 @@ void ToProto(const volume::LoadAssessment& load, v1::LoadAssessment* out) {
     out->set_empty_threshold_m3(load.empty_threshold_m3);
 }
 
+absl::StatusOr<std::int64_t> TimestampMicros(const google::protobuf::Timestamp& time,
+                                             const char* field) {
+    // The range of RFC 3339 (years 1..9999), as google.protobuf.Timestamp defines it.
+    constexpr std::int64_t kMinSeconds = -62135596800, kMaxSeconds = 253402300799;
+    if (time.seconds() < kMinSeconds || time.seconds() > kMaxSeconds || time.nanos() < 0 ||
+        time.nanos() > 999999999) {
+        return absl::InvalidArgumentError(absl::StrCat(field, ": not a valid timestamp"));
+    }
+    return google::protobuf::util::TimeUtil::TimestampToMicroseconds(time);
+}
+
 }  // namespace soilvol::server

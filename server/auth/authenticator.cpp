@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 19> kMethodScopes = {{
+constexpr std::array<MethodScope, 20> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -43,6 +43,7 @@ constexpr std::array<MethodScope, 19> kMethodScopes = {{
     {"CloseLoad", Scope::kEstimate},
     {"GetLoad", Scope::kRead},
     {"ListLoads", Scope::kRead},
+    {"GetProduction", Scope::kRead},
 }};
 
 // "Bearer <token>" (the scheme in any case, RFC 7235); "" when the header is something else.

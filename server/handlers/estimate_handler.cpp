@@ -189,7 +189,14 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     record.measured = CallRecord::Measured{
         request.container_id(), LoadStatusLabel(load.status), response->load().bank_volume_m3(),
         response->has_mass_kg() ? std::optional<double>(response->mass_kg()) : std::nullopt};
-    RecordEstimate(request, response, std::move(load_link), record);
+    Measures measures;
+    measures.volume_m3 = estimate.volume_m3;
+    measures.bank_volume_m3 = response->load().bank_volume_m3();
+    if (response->has_mass_kg()) measures.mass_kg = response->mass_kg();
+    measures.fill_ratio = response->fill_ratio();
+    measures.load_status = response->load().status();
+    measures.material = container->info.material().name();
+    RecordEstimate(request, response, std::move(load_link), std::move(measures), record);
     if (request.omit_heightmap()) response->clear_heightmap();
     return absl::OkStatus();
 }

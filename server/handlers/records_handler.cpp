@@ -24,17 +24,6 @@ absl::Status FromRecord(const EstimateRecord& row, bool full, v1::Estimate* out)
     return absl::OkStatus();
 }
 
-/// Microseconds since the epoch of a request's time bound, refusing what TimeUtil would not.
-absl::StatusOr<std::int64_t> MicrosOf(const google::protobuf::Timestamp& time, const char* field) {
-    // The range of RFC 3339 (years 1..9999), as google.protobuf.Timestamp defines it.
-    constexpr std::int64_t kMinSeconds = -62135596800, kMaxSeconds = 253402300799;
-    if (time.seconds() < kMinSeconds || time.seconds() > kMaxSeconds || time.nanos() < 0 ||
-        time.nanos() > 999999999) {
-        return absl::InvalidArgumentError(absl::StrCat(field, ": not a valid timestamp"));
-    }
-    return TimeUtil::TimestampToMicroseconds(time);
-}
-
 }  // namespace
 
 absl::StatusOr<EstimateRecorder*> SoilVolumeHandlers::Recorder() const {
@@ -46,7 +35,8 @@ absl::StatusOr<EstimateRecorder*> SoilVolumeHandlers::Recorder() const {
 
 void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request,
                                         v1::EstimateVolumeResponse* response,
-                                        std::optional<LoadLink> load, CallRecord& record) {
+                                        std::optional<LoadLink> load, Measures measures,
+                                        CallRecord& record) {
     if (!Records(request)) return;
     v1::Estimate kept;
     *kept.mutable_create_time() = NowTimestamp();
@@ -60,6 +50,7 @@ void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request
     row.registration_id = response->registration_id();
     row.payload = kept.SerializeAsString();
     row.load = std::move(load);
+    row.measures = std::move(measures);
     // The dispatcher hands the completion over once the handler returned, so the response
     // is no longer written on the worker when the commit sets its id.
     record.finish_later = [recorder = recorder_, row = std::move(row),
@@ -121,10 +112,12 @@ absl::Status SoilVolumeHandlers::ListEstimates(const v1::ListEstimatesRequest& r
     SOILVOL_ASSIGN_OR_RETURN(const int size, PageSizeOf(request.page_size()));
     SOILVOL_ASSIGN_OR_RETURN(query.before_id, ParseRecordPageToken(request.page_token()));
     if (request.has_start_time()) {
-        SOILVOL_ASSIGN_OR_RETURN(query.start_time_us, MicrosOf(request.start_time(), "start_time"));
+        SOILVOL_ASSIGN_OR_RETURN(query.start_time_us,
+                                 TimestampMicros(request.start_time(), "start_time"));
     }
     if (request.has_end_time()) {
-        SOILVOL_ASSIGN_OR_RETURN(query.end_time_us, MicrosOf(request.end_time(), "end_time"));
+        SOILVOL_ASSIGN_OR_RETURN(query.end_time_us,
+                                 TimestampMicros(request.end_time(), "end_time"));
     }
     if (query.end_time_us <= query.start_time_us) {
         return absl::InvalidArgumentError("end_time: must be after start_time");

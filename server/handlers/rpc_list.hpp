@@ -21,4 +21,5 @@
     X(GetLoad, GetLoadRequest, Load)                                          \
     X(ListLoads, ListLoadsRequest, ListLoadsResponse)                         \
     X(CloseLoad, CloseLoadRequest, Load)                                      \
+    X(GetProduction, GetProductionRequest, Production)                        \
     X(GetServerInfo, GetServerInfoRequest, ServerInfo)

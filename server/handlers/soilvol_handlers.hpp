@@ -39,6 +39,9 @@ struct HandlerOptions {
     io::MeshBudget mesh_budget;
     /// An open load with no pass for this long is closed (--load-idle-seconds); 0: never.
     std::int64_t load_idle_us = 30LL * 60 * 1'000'000;
+    /// Production's default zone and shift starts (--site-time-zone, --shift-starts).
+    std::string site_time_zone = "UTC";
+    std::vector<std::string> shift_starts = {"06:00", "18:00"};
 };
 
 /// The RPCs of soilvol.v1.SoilVolume over proto messages, free of any transport: the gRPC
@@ -87,6 +90,9 @@ class SoilVolumeHandlers {
                            CallRecord& record);
     absl::Status CloseLoad(const v1::CloseLoadRequest& request, v1::Load* response,
                            CallRecord& record);
+
+    absl::Status GetProduction(const v1::GetProductionRequest& request, v1::Production* response,
+                               CallRecord& record);
 
     /// WatchEstimates, free of any transport: `deliver` gets each record as the API message
     /// (null for a heartbeat; false ends the watch), `ended` why the server ended it. The
@@ -192,7 +198,7 @@ class SoilVolumeHandlers {
     /// record is committed (CallRecord::finish_later; the worker does not wait for it).
     void RecordEstimate(const v1::EstimateVolumeRequest& request,
                         v1::EstimateVolumeResponse* response, std::optional<LoadLink> load,
-                        CallRecord& record);
+                        Measures measures, CallRecord& record);
     /// The registration ListEstimates shows (RecordQuery::registration_id; "" = every one).
     absl::StatusOr<std::string> RegistrationFilter(const v1::ListEstimatesRequest& request);
     /// The recorder, or FailedPrecondition when records are off.
@@ -210,6 +216,12 @@ class SoilVolumeHandlers {
     /// scans oldest first.
     absl::Status BuildLoad(const LoadRecord& row, const std::vector<const EstimateRecord*>& records,
                            std::int64_t now_us, v1::Load* out) const;
+    /// The request's zone and shift starts (or the server's), echoed into `response`.
+    absl::StatusOr<SiteCalendar> CalendarOf(const v1::GetProductionRequest& request,
+                                            v1::Production* response) const;
+    /// The group of a production cell under the request's grouping.
+    std::function<std::string(const ProductionCell&)> GroupOf(
+        const v1::GetProductionRequest& request) const;
     /// The assessment of `totals` against the load's targets, or its body container's.
     void AssessTotals(const volume::LoadTotals& totals, v1::Load* out) const;
 
