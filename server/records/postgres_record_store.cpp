@@ -59,6 +59,7 @@ CREATE TABLE IF NOT EXISTS soilvol_production (
     status_3 BIGINT NOT NULL, status_4 BIGINT NOT NULL, status_5 BIGINT NOT NULL,
     status_6 BIGINT NOT NULL,
     PRIMARY KEY (bucket_us, container_id, haul_unit_id, material));
+ALTER TABLE soilvol_loads ADD COLUMN IF NOT EXISTS passes BIGINT NOT NULL DEFAULT 0;
 CREATE UNIQUE INDEX IF NOT EXISTS soilvol_loads_open_by_haul_unit
     ON soilvol_loads (haul_unit_id) WHERE state = 1;
 CREATE INDEX IF NOT EXISTS soilvol_loads_by_haul_unit ON soilvol_loads (haul_unit_id, seq);

@@ -59,11 +59,18 @@ CREATE INDEX IF NOT EXISTS loads_by_haul_unit ON loads (haul_unit_id, seq);
 )sql";
 
 // Columns added since the first schema: older databases gain them (their records: '' / 0).
-constexpr std::pair<const char*, const char*> kAddedColumns[] = {
-    {"registration_id",
+struct AddedColumn {
+    const char* table;
+    const char* column;
+    const char* alter;
+};
+constexpr AddedColumn kAddedColumns[] = {
+    {"estimates", "registration_id",
      "ALTER TABLE estimates ADD COLUMN registration_id TEXT NOT NULL DEFAULT ''"},
-    {"load_id", "ALTER TABLE estimates ADD COLUMN load_id TEXT NOT NULL DEFAULT ''"},
-    {"load_role", "ALTER TABLE estimates ADD COLUMN load_role INTEGER NOT NULL DEFAULT 0"},
+    {"estimates", "load_id", "ALTER TABLE estimates ADD COLUMN load_id TEXT NOT NULL DEFAULT ''"},
+    {"estimates", "load_role",
+     "ALTER TABLE estimates ADD COLUMN load_role INTEGER NOT NULL DEFAULT 0"},
+    {"loads", "passes", "ALTER TABLE loads ADD COLUMN passes INTEGER NOT NULL DEFAULT 0"},
 };
 
 constexpr const char* kSqliteAddedIndexes = R"sql(
@@ -207,9 +214,9 @@ class SqliteRecordStore final : public RecordStore {
             SOILVOL_RETURN_IF_ERROR(Exec(pragma));
         }
         SOILVOL_RETURN_IF_ERROR(Exec(kSqliteSchema));
-        for (const auto& [column, alter] : kAddedColumns) {
-            SOILVOL_ASSIGN_OR_RETURN(const bool has_column, HasColumn(column));
-            if (!has_column) SOILVOL_RETURN_IF_ERROR(Exec(alter));
+        for (const AddedColumn& added : kAddedColumns) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool has_column, HasColumn(added.table, added.column));
+            if (!has_column) SOILVOL_RETURN_IF_ERROR(Exec(added.alter));
         }
         return Exec(kSqliteAddedIndexes);
     }
@@ -455,10 +462,11 @@ class SqliteRecordStore final : public RecordStore {
     const char* kind() const override { return "sqlite"; }
 
   private:
-    absl::StatusOr<bool> HasColumn(const char* name) {
-        Statement columns(db_, "SELECT 1 FROM pragma_table_info('estimates') WHERE name = ?1");
+    absl::StatusOr<bool> HasColumn(const char* table, const char* name) {
+        Statement columns(db_, "SELECT 1 FROM pragma_table_info(?1) WHERE name = ?2");
         SOILVOL_RETURN_IF_ERROR(columns.Prepared("read the schema"));
-        columns.Bind(1, std::string(name));
+        columns.Bind(1, std::string(table));
+        columns.Bind(2, std::string(name));
         return columns.Step("read the schema");
     }
 
