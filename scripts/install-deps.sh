@@ -14,7 +14,7 @@ packages=(
     libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc grpc-proto
     libboost-dev libssl-dev prometheus-cpp-dev libspdlog-dev libsqlite3-dev libpqxx-dev
     golang-github-gogo-googleapis-dev
-    python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl
+    python3 python3-grpcio python3-protobuf python3-numpy python3-yaml curl tzdata
     libgtest-dev libgmock-dev libbenchmark-dev
     clang-format shellcheck yamllint universal-ctags
 )

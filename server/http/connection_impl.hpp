@@ -15,12 +15,14 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/ssl.hpp>
+#include <chrono>
 #include <deque>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <type_traits>
 #include <utility>
 
@@ -69,6 +71,28 @@ class Exchange final : public HttpExchange, public std::enable_shared_from_this<
         if (!connection) return false;
         connection->PostStreamChunk(std::move(chunk), false);
         return true;
+    }
+
+    bool SendPaced(std::string chunk, Clock::time_point deadline) override {
+        std::shared_ptr<Connection<Stream>> connection = Current();
+        if (!connection) return false;
+        // Polling on the producer's own (worker) thread: the writes drain the count on the
+        // connection's; a millisecond is far below a chunk's time on any network.
+        while (connection->unsent_bytes() > kPacedBacklogBytes) {
+            if (Gone() || Clock::now() > deadline) return false;
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        return Send(std::move(chunk));
+    }
+
+    void Abort() override {
+        if (!streaming_ || finished_.exchange(true)) return;
+        std::shared_ptr<Connection<Stream>> connection;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            connection = std::move(connection_);
+        }
+        if (connection) connection->PostClose();
     }
 
     void Finish() override {
@@ -176,11 +200,21 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
 
     /// One chunk of a streamed response, or its end (`last`).
     void PostStreamChunk(std::string chunk, bool last) {
+        unsent_bytes_ += chunk.size();
         net::post(stream_.get_executor(),
                   [self = this->shared_from_this(), chunk = std::move(chunk), last]() mutable {
                       self->QueueChunk(std::move(chunk), last);
                   });
     }
+
+    /// Ends the connection without the stream's last chunk: the client sees the response cut
+    /// short (a failed download), not a complete one.
+    void PostClose() {
+        net::post(stream_.get_executor(), [self = this->shared_from_this()] { self->Close(); });
+    }
+
+    /// Bytes of streamed chunks posted and not yet written to the socket.
+    std::size_t unsent_bytes() const { return unsent_bytes_.load(); }
 
     void PostResponse(HttpResponse response) {
         net::post(stream_.get_executor(),
@@ -452,6 +486,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
             return net::async_write(
                 stream_, http::make_chunk(net::buffer(*chunk)),
                 [self = this->shared_from_this(), chunk](beast::error_code ec, std::size_t) {
+                    self->unsent_bytes_ -= chunk->size();
                     self->OnStreamWrite(ec, self->stream_keep_alive_);
                 });
         }
@@ -547,6 +582,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     // A streamed response in progress.
     std::deque<std::string> pending_;
     std::size_t backlog_ = 0;
+    std::atomic<std::size_t> unsent_bytes_{0};  ///< posted chunks not yet written (SendPaced)
     bool writing_ = false;
     bool stream_end_ = false;
     bool stream_done_ = false;

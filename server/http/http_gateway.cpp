@@ -132,6 +132,10 @@ void HttpGateway::Handle(HttpRequest request, std::shared_ptr<HttpExchange> exch
     if (const auto png = HeightmapPngIds(request.path); png && request.method == "GET") {
         return ServeHeightmapPng(png->first, png->second, std::move(request), std::move(exchange));
     }
+    ExportPath export_path;
+    if (absl::StatusOr<RouteMatch> list = MatchExport(request, &export_path); list.ok()) {
+        return ServeExport(*list, export_path, std::move(request), std::move(exchange));
+    }
     absl::StatusOr<RouteMatch> match = MatchRoute(routes_, request.method, request.path);
     if (!match.ok()) return exchange->Respond(ErrorResponse(match.status(), origin));
     if (const auto stream = streams_.find(match->route->method); stream != streams_.end()) {

@@ -61,6 +61,14 @@ class HttpGateway {
     /// GetEstimate). Rendered on a worker.
     void ServeHeightmapPng(const std::string& container_id, const std::string& estimate_id,
                            HttpRequest request, std::shared_ptr<HttpExchange> exchange);
+    /// GET /v1/containers/{id}/estimates:export, /v1/loads:export, /v1/production:export: the
+    /// list route an export path names (ExportPathOf), set in `path`; NotFound otherwise.
+    absl::StatusOr<RouteMatch> MatchExport(const HttpRequest& head, ExportPath* path) const;
+    /// The list's items as CSV or JSON lines (ExportList), streamed from a worker at the
+    /// client's pace (the list's scope, filters and errors); a failure after the first rows
+    /// cuts the download short.
+    void ServeExport(const RouteMatch& match, const ExportPath& path, HttpRequest request,
+                     std::shared_ptr<HttpExchange> exchange);
     /// The dashboard's files at / and /dashboard/<name>; false for other paths.
     bool ServeDashboard(const HttpRequest& request, HttpExchange& exchange) const;
     /// Health and metrics; false when `request` is not for them.

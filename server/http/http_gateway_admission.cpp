@@ -141,7 +141,9 @@ std::optional<HttpResponse> HttpGateway::Admit(const HttpRequest& head) const {
         }
         return std::nullopt;
     }
-    absl::StatusOr<RouteMatch> match = MatchRoute(routes_, head.method, head.path);
+    ExportPath export_path;
+    absl::StatusOr<RouteMatch> match = MatchExport(head, &export_path);
+    if (!match.ok()) match = MatchRoute(routes_, head.method, head.path);
     if (!match.ok()) {
         // One label for every path no route serves: metrics stay bounded whatever is asked.
         CallContext call = ContextOf(head, "unmatched");

@@ -70,7 +70,18 @@ class HttpExchange {
     virtual bool Send(std::string chunk) = 0;
     /// Ends the stream (the last chunk); the connection then serves its next request.
     virtual void Finish() = 0;
+    /// Send for a producer that may wait (a worker streaming a download): first waits, up to
+    /// `deadline`, while more than kPacedBacklogBytes are unsent, so that a slow reader slows
+    /// the producer instead of being cut off or growing the queue. False when the client is
+    /// gone, the deadline passed or the stream is over.
+    virtual bool SendPaced(std::string chunk, std::chrono::steady_clock::time_point deadline) = 0;
+    /// Ends a stream without its last chunk (the connection closes): a download that failed
+    /// half way shows as cut short, not as complete.
+    virtual void Abort() = 0;
 };
+
+/// What SendPaced lets wait unsent before it waits.
+inline constexpr std::size_t kPacedBacklogBytes = 256 * 1024;
 
 /// What a streamed response may hold unsent for a slow reader before it is cut off.
 inline constexpr std::size_t kStreamBacklogBytes = 1 << 20;

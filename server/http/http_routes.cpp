@@ -2,7 +2,9 @@
 
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "google/api/annotations.pb.h"
 #include "server/http/query_string.hpp"
 
@@ -112,6 +114,23 @@ std::optional<std::pair<std::string, std::string>> HeightmapPngIds(const std::st
     std::smatch groups;
     if (!std::regex_match(path, groups, kPath)) return std::nullopt;
     return std::make_pair(groups[1].str(), groups[2].str());
+}
+
+std::optional<ExportPath> ExportPathOf(const std::string& path, const std::string& query) {
+    constexpr std::string_view kSuffix = ":export";
+    if (path.size() <= kSuffix.size() ||
+        path.compare(path.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
+        return std::nullopt;
+    }
+    ExportPath out{path.substr(0, path.size() - kSuffix.size()), "", "csv"};
+    for (const absl::string_view part : absl::StrSplit(query, '&', absl::SkipEmpty())) {
+        if (absl::StartsWith(part, "format=")) {
+            out.format = std::string(part.substr(7));
+            continue;
+        }
+        absl::StrAppend(&out.query, out.query.empty() ? "" : "&", part);
+    }
+    return out;
 }
 
 }  // namespace soilvol::server

@@ -45,4 +45,14 @@ absl::StatusOr<RouteMatch> MatchRoute(const std::vector<HttpRoute>& routes, cons
 /// {estimate_id}/heightmap.png (no proto route: a PNG, not JSON); nullopt for any other path.
 std::optional<std::pair<std::string, std::string>> HeightmapPngIds(const std::string& path);
 
+/// An export (GET <list path>:export?format=csv|jsonl&<the list's filters>): the list route's
+/// path, and the query without `format` and the format given ("csv" when none); nullopt for a
+/// path that does not end in ":export".
+struct ExportPath {
+    std::string list_path;
+    std::string query;
+    std::string format;
+};
+std::optional<ExportPath> ExportPathOf(const std::string& path, const std::string& query);
+
 }  // namespace soilvol::server

@@ -51,7 +51,9 @@ class LoadsContract:
     def setUpClass(cls):
         cls.server = Server(args=["--workers", "2", "--load-idle-seconds", str(IDLE_S),
                                   *cls.records_args()]).start()
+        cls.addClassCleanup(cls.server.close)  # also when the rest of the set-up fails
         cls.channel = cls.server.channel(grpc)
+        cls.addClassCleanup(cls.channel.close)
         cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
         cls.prefix = "ld-" + uuid.uuid4().hex[:8]
         cls.bucket, cls.body = cls.prefix + "-bucket", cls.prefix + "-body"
@@ -62,11 +64,6 @@ class LoadsContract:
                 opening=pb.Opening(corners=[pb.Point3(x=x, y=y, z=z)
                                             for x, y, z in box_scene.opening_corners()])),
                 timeout=60)
-
-    @classmethod
-    def tearDownClass(cls):
-        cls.channel.close()
-        cls.server.close()
 
     def create(self, haul_unit, **load):
         return self.stub.CreateLoad(pb.CreateLoadRequest(

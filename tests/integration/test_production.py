@@ -34,7 +34,9 @@ class ProductionContract:
     def setUpClass(cls):
         cls.server = Server(args=["--workers", "2", "--site-time-zone", "America/Chicago",
                                   "--shift-starts", "07:00,19:00", *cls.records_args()]).start()
+        cls.addClassCleanup(cls.server.close)  # also when the rest of the set-up fails
         cls.channel = cls.server.channel(grpc)
+        cls.addClassCleanup(cls.channel.close)
         cls.stub = pb_grpc.SoilVolumeStub(cls.channel)
         p = "pr-" + uuid.uuid4().hex[:8]
         cls.a, cls.b, cls.body = p + "-a", p + "-b", p + "-body"
@@ -59,11 +61,6 @@ class ProductionContract:
                 container_id=cid, scan=scan(fill, 40 + i), load_id=load_id, omit_heightmap=True),
                 timeout=60))
         cls.after = cls.now()
-
-    @classmethod
-    def tearDownClass(cls):
-        cls.channel.close()
-        cls.server.close()
 
     @staticmethod
     def now():
