@@ -47,6 +47,22 @@ ProductionPeriod PeriodOf(v1::ProductionPeriod period) {
     }
 }
 
+/// The rollup dimension a grouping reads (a label groups containers).
+int DimensionOf(v1::ProductionGrouping grouping) {
+    switch (grouping) {
+        case v1::PRODUCTION_GROUPING_CONTAINER:
+        case v1::PRODUCTION_GROUPING_LABEL:
+            return kByContainer;
+        case v1::PRODUCTION_GROUPING_HAUL_UNIT:
+            return kByHaulUnit;
+        case v1::PRODUCTION_GROUPING_MATERIAL:
+            return kByMaterial;
+        case v1::PRODUCTION_GROUPING_UNSPECIFIED:
+        default:
+            return kTotal;
+    }
+}
+
 /// "loaded_ok" for LOAD_STATUS_LOADED_OK.
 std::string StatusKey(int status) {
     const std::string& name = v1::LoadStatus_Name(static_cast<v1::LoadStatus>(status));
@@ -139,8 +155,12 @@ absl::Status SoilVolumeHandlers::GetProduction(const v1::GetProductionRequest& r
     SOILVOL_ASSIGN_OR_RETURN(
         const std::vector<Period> periods,
         MakePeriods(calendar, PeriodOf(request.period()), range.first, range.second, kMaxPeriods));
-    SOILVOL_ASSIGN_OR_RETURN(const std::vector<ProductionCell> cells,
-                             store->ProductionCells(range.first, range.second));
+    if (periods.empty()) return absl::OkStatus();
+    // Every period overlapping the range counts whole, from the coarsest rollup it allows.
+    SOILVOL_ASSIGN_OR_RETURN(
+        const std::vector<ProductionCell> cells,
+        store->ProductionCells(periods.front().start_us, periods.back().end_us,
+                               DimensionOf(request.group_by()), RollupGranularityFor(periods)));
     const std::vector<ProductionRow> rows = SumProduction(cells, periods, GroupOf(request));
     const std::size_t first = static_cast<std::size_t>(offset.value_or(0));
     const std::size_t last = std::min(rows.size(), first + static_cast<std::size_t>(size));

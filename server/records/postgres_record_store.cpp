@@ -59,6 +59,22 @@ CREATE TABLE IF NOT EXISTS soilvol_production (
     status_3 BIGINT NOT NULL, status_4 BIGINT NOT NULL, status_5 BIGINT NOT NULL,
     status_6 BIGINT NOT NULL,
     PRIMARY KEY (bucket_us, container_id, haul_unit_id, material));
+CREATE TABLE IF NOT EXISTS soilvol_production_rollup (
+    granularity_us BIGINT NOT NULL,
+    dimension INTEGER NOT NULL,
+    bucket_us BIGINT NOT NULL,
+    key TEXT NOT NULL,
+    passes BIGINT NOT NULL,
+    loads BIGINT NOT NULL,
+    volume_m3 DOUBLE PRECISION NOT NULL,
+    bank_volume_m3 DOUBLE PRECISION NOT NULL,
+    mass_kg DOUBLE PRECISION NOT NULL,
+    mass_passes BIGINT NOT NULL,
+    fill_ratio_sum DOUBLE PRECISION NOT NULL,
+    status_0 BIGINT NOT NULL, status_1 BIGINT NOT NULL, status_2 BIGINT NOT NULL,
+    status_3 BIGINT NOT NULL, status_4 BIGINT NOT NULL, status_5 BIGINT NOT NULL,
+    status_6 BIGINT NOT NULL,
+    PRIMARY KEY (granularity_us, dimension, bucket_us, key));
 ALTER TABLE soilvol_loads ADD COLUMN IF NOT EXISTS passes BIGINT NOT NULL DEFAULT 0;
 CREATE UNIQUE INDEX IF NOT EXISTS soilvol_loads_open_by_haul_unit
     ON soilvol_loads (haul_unit_id) WHERE state = 1;
@@ -120,21 +136,20 @@ LoadRecord PgLoadFrom(const pqxx::row& row) {
     return load;
 }
 
-ProductionCell PgCellFrom(const pqxx::row& row) {
+/// A rollup row (RollupSelectSql) of `dimension`.
+ProductionCell PgCellFrom(const pqxx::row& row, int dimension) {
     ProductionCell cell;
     cell.bucket_us = row[0].as<std::int64_t>();
-    cell.container_id = row[1].as<std::string>();
-    cell.haul_unit_id = row[2].as<std::string>();
-    cell.material = row[3].as<std::string>();
-    cell.passes = row[4].as<std::int64_t>();
-    cell.loads = row[5].as<std::int64_t>();
-    cell.volume_m3 = row[6].as<double>();
-    cell.bank_volume_m3 = row[7].as<double>();
-    cell.mass_kg = row[8].as<double>();
-    cell.mass_passes = row[9].as<std::int64_t>();
-    cell.fill_ratio_sum = row[10].as<double>();
+    SetCellKey(dimension, row[1].as<std::string>(), cell);
+    cell.passes = row[2].as<std::int64_t>();
+    cell.loads = row[3].as<std::int64_t>();
+    cell.volume_m3 = row[4].as<double>();
+    cell.bank_volume_m3 = row[5].as<double>();
+    cell.mass_kg = row[6].as<double>();
+    cell.mass_passes = row[7].as<std::int64_t>();
+    cell.fill_ratio_sum = row[8].as<double>();
     for (int i = 0; i < ProductionCell::kStatuses; ++i) {
-        cell.statuses[i] = row[11 + i].as<std::int64_t>();
+        cell.statuses[i] = row[9 + i].as<std::int64_t>();
     }
     return cell;
 }
@@ -147,6 +162,19 @@ void PgAddProduction(pqxx::work& work, const EstimateRecord& record, const Joine
                      c.haul_unit_id, c.material, c.passes, c.loads, c.volume_m3, c.bank_volume_m3,
                      c.mass_kg, c.mass_passes, c.fill_ratio_sum, s[0], s[1], s[2], s[3], s[4], s[5],
                      s[6]);
+    static const std::string rollup = RollupUpsertSql("soilvol_production_rollup", '$');
+    for (const RollupKey& k : RollupKeysOf(c)) {
+        work.exec_params(rollup, k.granularity_us, k.dimension, k.bucket_us, k.key, c.passes,
+                         c.loads, c.volume_m3, c.bank_volume_m3, c.mass_kg, c.mass_passes,
+                         c.fill_ratio_sum, s[0], s[1], s[2], s[3], s[4], s[5], s[6]);
+    }
+}
+
+void PgRebuildRollup(pqxx::work& work) {
+    for (const std::string& sql :
+         RollupRebuildSql("soilvol_production", "soilvol_production_rollup")) {
+        work.exec(sql);
+    }
 }
 
 /// The load `load_id`, locked for this transaction's changes; none when there is no such load.
@@ -191,7 +219,17 @@ class PostgresRecordStore final : public RecordStore {
     explicit PostgresRecordStore(std::string url) : url_(std::move(url)) {}
 
     absl::Status Init() {
-        return Run("create the schema", [](pqxx::work& work) { work.exec(kPostgresSchema); });
+        return Run("create the schema", [](pqxx::work& work) {
+            work.exec(kPostgresSchema);
+            // A database made before the rollup: made from the fine table once.
+            const pqxx::result missing = work.exec(
+                "SELECT EXISTS (SELECT 1 FROM soilvol_production) AND NOT EXISTS (SELECT 1 FROM "
+                "soilvol_production_rollup)");
+            if (missing[0][0].as<bool>()) {
+                work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
+                PgRebuildRollup(work);
+            }
+        });
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {
@@ -301,8 +339,10 @@ class PostgresRecordStore final : public RecordStore {
             deleted = work.exec_params("DELETE FROM soilvol_estimates WHERE container_id = $1",
                                        container_id)
                           .affected_rows();
+            work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             work.exec_params("DELETE FROM soilvol_production WHERE container_id = $1",
                              container_id);
+            PgRebuildRollup(work);
         }));
         return deleted;
     }
@@ -389,14 +429,16 @@ class PostgresRecordStore final : public RecordStore {
         return closed;
     }
 
-    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t start_us,
-                                                                std::int64_t end_us) override {
+    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(
+        std::int64_t start_us, std::int64_t end_us, int dimension,
+        std::int64_t granularity_us) override {
         std::vector<ProductionCell> out;
         SOILVOL_RETURN_IF_ERROR(Run("read production", [&](pqxx::work& work) {
             const pqxx::result rows =
-                work.exec_params(ProductionSelectSql("soilvol_production", '$'), start_us, end_us);
+                work.exec_params(RollupSelectSql("soilvol_production_rollup", '$'), granularity_us,
+                                 dimension, start_us, end_us);
             out.reserve(rows.size());
-            for (const pqxx::row& row : rows) out.push_back(PgCellFrom(row));
+            for (const pqxx::row& row : rows) out.push_back(PgCellFrom(row, dimension));
         }));
         return out;
     }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <iterator>
 #include <map>
 #include <utility>
 
@@ -94,7 +95,9 @@ ProductionCell CellOf(const Measures& measures, const std::string& container_id,
 
 namespace {
 
-constexpr const char* kKeyColumns[] = {"bucket_us", "container_id", "haul_unit_id", "material"};
+/// Each dimension's key in the fine table ('' for the total).
+constexpr const char* kDimensionColumns[kProductionDimensions] = {"''", "container_id",
+                                                                  "haul_unit_id", "material"};
 constexpr const char* kValueColumns[] = {
     "passes",      "loads",          "volume_m3", "bank_volume_m3", "mass_kg",
     "mass_passes", "fill_ratio_sum", "status_0",  "status_1",       "status_2",
@@ -102,36 +105,77 @@ constexpr const char* kValueColumns[] = {
 
 }  // namespace
 
-std::string ProductionUpsertSql(const std::string& table, char p) {
-    std::string columns, params, updates;
-    int n = 0;
-    for (const char* column : kKeyColumns) {
-        const char* comma = n == 0 ? "" : ", ";
-        ++n;
-        absl::StrAppend(&columns, comma, column);
-        absl::StrAppend(&params, comma, std::string(1, p), n);
-    }
+namespace {
+
+std::string Param(char p, int n) { return absl::StrCat(std::string(1, p), n); }
+
+/// "passes = t.passes + excluded.passes, ..." for every value column.
+std::string AddedValues(const std::string& table) {
+    std::string updates;
     for (const char* column : kValueColumns) {
-        ++n;
-        absl::StrAppend(&columns, ", ", column);
-        absl::StrAppend(&params, ", ", std::string(1, p), n);
         absl::StrAppend(&updates, updates.empty() ? "" : ", ", column, " = ", table, ".", column,
                         " + excluded.", column);
     }
-    return absl::StrCat("INSERT INTO ", table, " (", columns, ") VALUES (", params,
-                        ") ON CONFLICT (bucket_us, container_id, haul_unit_id, material) DO "
-                        "UPDATE SET ",
-                        updates);
+    return updates;
 }
 
-std::string ProductionSelectSql(const std::string& table, char p) {
-    std::string columns;
-    for (const char* column : kKeyColumns)
-        absl::StrAppend(&columns, columns.empty() ? "" : ", ", column);
-    for (const char* column : kValueColumns) absl::StrAppend(&columns, ", ", column);
-    return absl::StrCat("SELECT ", columns, " FROM ", table,
-                        " WHERE bucket_us >= ", std::string(1, p), "1 AND bucket_us < ",
-                        std::string(1, p), "2");
+std::string ValueList(const char* wrap) {
+    std::string list;
+    for (const char* column : kValueColumns) {
+        absl::StrAppend(&list, list.empty() ? "" : ", ", wrap, column, *wrap ? ")" : "");
+    }
+    return list;
+}
+
+}  // namespace
+
+std::string ProductionUpsertSql(const std::string& table, char p) {
+    std::string params;
+    for (int n = 1; n <= 4 + static_cast<int>(std::size(kValueColumns)); ++n) {
+        absl::StrAppend(&params, n == 1 ? "" : ", ", Param(p, n));
+    }
+    return absl::StrCat("INSERT INTO ", table,
+                        " (bucket_us, container_id, haul_unit_id, material, ", ValueList(""),
+                        ") VALUES (", params,
+                        ") ON CONFLICT (bucket_us, container_id, haul_unit_id, material) DO "
+                        "UPDATE SET ",
+                        AddedValues(table));
+}
+
+std::string RollupUpsertSql(const std::string& table, char p) {
+    std::string params;
+    for (int n = 1; n <= 4 + static_cast<int>(std::size(kValueColumns)); ++n) {
+        absl::StrAppend(&params, n == 1 ? "" : ", ", Param(p, n));
+    }
+    return absl::StrCat("INSERT INTO ", table, " (granularity_us, dimension, bucket_us, key, ",
+                        ValueList(""), ") VALUES (", params,
+                        ") ON CONFLICT (granularity_us, dimension, bucket_us, key) DO UPDATE SET ",
+                        AddedValues(table));
+}
+
+std::string RollupSelectSql(const std::string& table, char p) {
+    return absl::StrCat("SELECT bucket_us, key, ", ValueList(""), " FROM ", table,
+                        " WHERE granularity_us = ", Param(p, 1), " AND dimension = ", Param(p, 2),
+                        " AND bucket_us >= ", Param(p, 3), " AND bucket_us < ", Param(p, 4));
+}
+
+std::vector<std::string> RollupRebuildSql(const std::string& fine, const std::string& rollup) {
+    std::vector<std::string> out = {absl::StrCat("DELETE FROM ", rollup)};
+    for (const std::int64_t granularity : kRollupGranularitiesUs) {
+        const std::string bucket =
+            absl::StrCat("(bucket_us - (bucket_us % ", granularity, "))");  // times after 1970
+        for (int dimension = 0; dimension < kProductionDimensions; ++dimension) {
+            const char* key = kDimensionColumns[dimension];
+            out.push_back(absl::StrCat("INSERT INTO ", rollup,
+                                       " (granularity_us, dimension, "
+                                       "bucket_us, key, ",
+                                       ValueList(""), ") SELECT ", granularity, ", ", dimension,
+                                       ", ", bucket, ", ", key, ", ", ValueList("SUM("), " FROM ",
+                                       fine, " GROUP BY ", bucket,
+                                       dimension == kTotal ? "" : absl::StrCat(", ", key)));
+        }
+    }
+    return out;
 }
 
 absl::StatusOr<std::vector<int>> ParseShiftStarts(const std::vector<std::string>& starts,
@@ -176,6 +220,46 @@ absl::StatusOr<std::vector<Period>> MakePeriods(const SiteCalendar& calendar,
         out.push_back({from, to, boundaries[i].second});
     }
     return out;
+}
+
+std::vector<RollupKey> RollupKeysOf(const ProductionCell& fine) {
+    std::vector<RollupKey> out;
+    for (const std::int64_t granularity : kRollupGranularitiesUs) {
+        const std::int64_t bucket =
+            fine.bucket_us - (((fine.bucket_us % granularity) + granularity) % granularity);
+        out.push_back({granularity, kTotal, bucket, ""});
+        out.push_back({granularity, kByContainer, bucket, fine.container_id});
+        out.push_back({granularity, kByHaulUnit, bucket, fine.haul_unit_id});
+        out.push_back({granularity, kByMaterial, bucket, fine.material});
+    }
+    return out;
+}
+
+void SetCellKey(int dimension, std::string key, ProductionCell& cell) {
+    switch (dimension) {
+        case kByContainer:
+            cell.container_id = std::move(key);
+            break;
+        case kByHaulUnit:
+            cell.haul_unit_id = std::move(key);
+            break;
+        case kByMaterial:
+            cell.material = std::move(key);
+            break;
+        default:
+            break;
+    }
+}
+
+std::int64_t RollupGranularityFor(const std::vector<Period>& periods) {
+    for (auto g = std::rbegin(kRollupGranularitiesUs); g != std::rend(kRollupGranularitiesUs);
+         ++g) {
+        const bool aligned = std::all_of(periods.begin(), periods.end(), [g](const Period& p) {
+            return p.start_us % *g == 0 && p.end_us % *g == 0;
+        });
+        if (aligned) return *g;
+    }
+    return kProductionBucketUs;
 }
 
 std::vector<ProductionRow> SumProduction(

@@ -49,13 +49,41 @@ struct ProductionCell {
 ProductionCell CellOf(const Measures& measures, const std::string& container_id,
                       const std::string& haul_unit_id, std::int64_t time_us, bool first_pass);
 
-/// The rollup's SQL, for both stores: `p` the parameter mark ('?' SQLite, '$' PostgreSQL).
-/// Adds a cell (parameters 1-18: bucket, container, haul unit, material, passes, loads,
-/// volume, bank volume, mass, mass passes, fill sum, statuses 0-6) to `table`.
+/// The store keeps production twice. The fine table has one row per 15-minute bucket,
+/// container, haul unit and material (the truth: purging a container's records removes its
+/// rows there). The rollup, derived from it in the same transactions, has one row per
+/// granularity (15 minutes, an hour), dimension and bucket, keyed by the dimension's value
+/// alone: a query reads one dimension at the coarsest granularity its periods allow, a few
+/// rows per period instead of the cross product of containers, trucks and materials.
+enum ProductionDimension { kTotal = 0, kByContainer = 1, kByHaulUnit = 2, kByMaterial = 3 };
+inline constexpr int kProductionDimensions = 4;
+inline constexpr std::int64_t kRollupGranularitiesUs[] = {kProductionBucketUs,
+                                                          4 * kProductionBucketUs};
+
+/// Where one fine cell adds in the rollup: its bucket at every granularity, in every dimension.
+struct RollupKey {
+    std::int64_t granularity_us = 0;
+    int dimension = kTotal;
+    std::int64_t bucket_us = 0;
+    std::string key;
+};
+std::vector<RollupKey> RollupKeysOf(const ProductionCell& fine);
+
+/// A rollup row's key into the field of its dimension.
+void SetCellKey(int dimension, std::string key, ProductionCell& cell);
+
+/// The SQL of both stores: `p` the parameter mark ('?' SQLite, '$' PostgreSQL).
+/// Adds a cell to the fine table (parameters 1-18: bucket, container, haul unit, material,
+/// passes, loads, volume, bank volume, mass, mass passes, fill sum, statuses 0-6).
 std::string ProductionUpsertSql(const std::string& table, char p);
-/// Selects the cells with bucket_us in [param 1, param 2), every column as ProductionUpsertSql
-/// binds them.
-std::string ProductionSelectSql(const std::string& table, char p);
+/// Adds to the rollup (parameters 1-18: granularity, dimension, bucket, key, then the values).
+std::string RollupUpsertSql(const std::string& table, char p);
+/// The rollup's rows of one granularity and dimension with buckets in [param 3, param 4):
+/// bucket_us, key, the values.
+std::string RollupSelectSql(const std::string& table, char p);
+/// The statements that make the rollup anew from the fine table (after a purge, or for a
+/// database made before the rollup).
+std::vector<std::string> RollupRebuildSql(const std::string& fine, const std::string& rollup);
 
 /// Periods of a site's day in its IANA zone.
 struct SiteCalendar {
@@ -85,6 +113,9 @@ struct Period {
 absl::StatusOr<std::vector<Period>> MakePeriods(const SiteCalendar& calendar,
                                                 ProductionPeriod period, std::int64_t start_us,
                                                 std::int64_t end_us, std::size_t max_periods);
+
+/// The coarsest rollup granularity on which every period boundary falls.
+std::int64_t RollupGranularityFor(const std::vector<Period>& periods);
 
 /// Totals of one period and group.
 struct ProductionRow {

@@ -102,13 +102,14 @@ class RecordStore {
     virtual absl::StatusOr<LoadRecord> CloseLoad(const std::string& load_id, std::int64_t now_us,
                                                  std::int64_t idle_us,
                                                  std::optional<std::int64_t> revision) = 0;
-    /// The production rollup's cells with a bucket in [start_us, end_us): every record the
-    /// store kept since the rollup existed but a load's body scan, summed by 15-minute bucket,
-    /// container, haul unit (its load's; "" for none) and material, in the transaction that
-    /// kept it. Retention does not prune it (production outlives the records); purging a
-    /// container's records purges its cells.
-    virtual absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t start_us,
-                                                                        std::int64_t end_us) = 0;
+    /// The production rollup's rows of `dimension` at `granularity_us` (see production.hpp)
+    /// with a bucket in [start_us, end_us): every record the store kept since the rollup
+    /// existed but a load's body scan, summed in the transaction that kept it. Each cell holds
+    /// its key in the field of its dimension (container_id, haul_unit_id or material; none for
+    /// the total). Retention does not prune production (it outlives the records); purging a
+    /// container's records purges its part.
+    virtual absl::StatusOr<std::vector<ProductionCell>> ProductionCells(
+        std::int64_t start_us, std::int64_t end_us, int dimension, std::int64_t granularity_us) = 0;
     /// Every record of these loads (with payloads and their LoadLink), oldest first.
     virtual absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
         const std::vector<std::string>& load_ids) = 0;

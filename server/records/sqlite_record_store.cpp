@@ -54,6 +54,22 @@ CREATE TABLE IF NOT EXISTS production (
     status_3 INTEGER NOT NULL, status_4 INTEGER NOT NULL, status_5 INTEGER NOT NULL,
     status_6 INTEGER NOT NULL,
     PRIMARY KEY (bucket_us, container_id, haul_unit_id, material)) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS production_rollup (
+    granularity_us INTEGER NOT NULL,
+    dimension INTEGER NOT NULL,
+    bucket_us INTEGER NOT NULL,
+    key TEXT NOT NULL,
+    passes INTEGER NOT NULL,
+    loads INTEGER NOT NULL,
+    volume_m3 REAL NOT NULL,
+    bank_volume_m3 REAL NOT NULL,
+    mass_kg REAL NOT NULL,
+    mass_passes INTEGER NOT NULL,
+    fill_ratio_sum REAL NOT NULL,
+    status_0 INTEGER NOT NULL, status_1 INTEGER NOT NULL, status_2 INTEGER NOT NULL,
+    status_3 INTEGER NOT NULL, status_4 INTEGER NOT NULL, status_5 INTEGER NOT NULL,
+    status_6 INTEGER NOT NULL,
+    PRIMARY KEY (granularity_us, dimension, bucket_us, key)) WITHOUT ROWID;
 CREATE UNIQUE INDEX IF NOT EXISTS loads_open_by_haul_unit ON loads (haul_unit_id) WHERE state = 1;
 CREATE INDEX IF NOT EXISTS loads_by_haul_unit ON loads (haul_unit_id, seq);
 )sql";
@@ -187,21 +203,34 @@ LoadRecord LoadFrom(const Statement& row) {
     return load;
 }
 
-ProductionCell CellFrom(const Statement& row) {
+/// A rollup row (RollupSelectSql) of `dimension`.
+ProductionCell CellFrom(const Statement& row, int dimension) {
     ProductionCell cell;
     cell.bucket_us = row.Int(0);
-    cell.container_id = row.Text(1);
-    cell.haul_unit_id = row.Text(2);
-    cell.material = row.Text(3);
-    cell.passes = row.Int(4);
-    cell.loads = row.Int(5);
-    cell.volume_m3 = row.Real(6);
-    cell.bank_volume_m3 = row.Real(7);
-    cell.mass_kg = row.Real(8);
-    cell.mass_passes = row.Int(9);
-    cell.fill_ratio_sum = row.Real(10);
-    for (int i = 0; i < ProductionCell::kStatuses; ++i) cell.statuses[i] = row.Int(11 + i);
+    SetCellKey(dimension, row.Text(1), cell);
+    cell.passes = row.Int(2);
+    cell.loads = row.Int(3);
+    cell.volume_m3 = row.Real(4);
+    cell.bank_volume_m3 = row.Real(5);
+    cell.mass_kg = row.Real(6);
+    cell.mass_passes = row.Int(7);
+    cell.fill_ratio_sum = row.Real(8);
+    for (int i = 0; i < ProductionCell::kStatuses; ++i) cell.statuses[i] = row.Int(9 + i);
     return cell;
+}
+
+/// Binds a cell's values from parameter `first` on (ProductionUpsertSql, RollupUpsertSql).
+void BindValues(Statement& statement, int first, const ProductionCell& cell) {
+    statement.Bind(first, cell.passes);
+    statement.Bind(first + 1, cell.loads);
+    statement.Bind(first + 2, cell.volume_m3);
+    statement.Bind(first + 3, cell.bank_volume_m3);
+    statement.Bind(first + 4, cell.mass_kg);
+    statement.Bind(first + 5, cell.mass_passes);
+    statement.Bind(first + 6, cell.fill_ratio_sum);
+    for (int i = 0; i < ProductionCell::kStatuses; ++i) {
+        statement.Bind(first + 7 + i, cell.statuses[i]);
+    }
 }
 
 class SqliteRecordStore final : public RecordStore {
@@ -218,7 +247,15 @@ class SqliteRecordStore final : public RecordStore {
             SOILVOL_ASSIGN_OR_RETURN(const bool has_column, HasColumn(added.table, added.column));
             if (!has_column) SOILVOL_RETURN_IF_ERROR(Exec(added.alter));
         }
-        return Exec(kSqliteAddedIndexes);
+        SOILVOL_RETURN_IF_ERROR(Exec(kSqliteAddedIndexes));
+        // A database made before the rollup: made from the fine table once.
+        Statement missing(db_,
+                          "SELECT EXISTS (SELECT 1 FROM production) AND NOT EXISTS (SELECT 1 "
+                          "FROM production_rollup)");
+        SOILVOL_RETURN_IF_ERROR(missing.Prepared("read the schema"));
+        SOILVOL_RETURN_IF_ERROR(missing.Step("read the schema").status());
+        if (missing.Int(0) == 0) return absl::OkStatus();
+        return InTransaction([this] { return RebuildRollup(); });
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {
@@ -320,18 +357,21 @@ class SqliteRecordStore final : public RecordStore {
         return closed;
     }
 
-    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t start_us,
-                                                                std::int64_t end_us) override {
+    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(
+        std::int64_t start_us, std::int64_t end_us, int dimension,
+        std::int64_t granularity_us) override {
         std::lock_guard<std::mutex> lock(mutex_);
-        Statement select(db_, ProductionSelectSql("production", '?'));
+        Statement select(db_, RollupSelectSql("production_rollup", '?'));
         SOILVOL_RETURN_IF_ERROR(select.Prepared("read production"));
-        select.Bind(1, start_us);
-        select.Bind(2, end_us);
+        select.Bind(1, granularity_us);
+        select.Bind(2, std::int64_t{dimension});
+        select.Bind(3, start_us);
+        select.Bind(4, end_us);
         std::vector<ProductionCell> out;
         while (true) {
             SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("read production"));
             if (!row) break;
-            out.push_back(CellFrom(select));
+            out.push_back(CellFrom(select, dimension));
         }
         return out;
     }
@@ -453,7 +493,8 @@ class SqliteRecordStore final : public RecordStore {
             Statement cells(db_, "DELETE FROM production WHERE container_id = ?1");
             SOILVOL_RETURN_IF_ERROR(cells.Prepared("delete a container's production"));
             cells.Bind(1, container_id);
-            return cells.Step("delete a container's production").status();
+            SOILVOL_RETURN_IF_ERROR(cells.Step("delete a container's production").status());
+            return RebuildRollup();
         });
         SOILVOL_RETURN_IF_ERROR(done);
         return deleted;
@@ -538,8 +579,10 @@ class SqliteRecordStore final : public RecordStore {
                          "payload, registration_id, load_id, load_role) VALUES (?1, ?2, ?3, ?4, "
                          "?5, ?6, ?7)");
         SOILVOL_RETURN_IF_ERROR(insert.Prepared("insert"));
-        Statement upsert(db_, ProductionUpsertSql("production", '?'));
-        SOILVOL_RETURN_IF_ERROR(upsert.Prepared("add to production"));
+        Statement fine(db_, ProductionUpsertSql("production", '?'));
+        SOILVOL_RETURN_IF_ERROR(fine.Prepared("add to production"));
+        Statement rollup(db_, RollupUpsertSql("production_rollup", '?'));
+        SOILVOL_RETURN_IF_ERROR(rollup.Prepared("add to production"));
         for (EstimateRecord& record : records) {
             JoinedLoad joined;
             if (record.load) {
@@ -559,30 +602,42 @@ class SqliteRecordStore final : public RecordStore {
             SOILVOL_RETURN_IF_ERROR(insert.Step("insert").status());
             record.id = sqlite3_last_insert_rowid(db_);
             insert.Reset();
-            if (!joined.body_scan) SOILVOL_RETURN_IF_ERROR(AddProduction(upsert, record, joined));
+            if (!joined.body_scan) {
+                SOILVOL_RETURN_IF_ERROR(AddProduction(fine, rollup, record, joined));
+            }
         }
         return absl::OkStatus();
     }
 
-    absl::Status AddProduction(Statement& upsert, const EstimateRecord& record,
+    absl::Status AddProduction(Statement& fine, Statement& rollup, const EstimateRecord& record,
                                const JoinedLoad& joined) {
         const ProductionCell cell =
             CellOf(record.measures, record.container_id, joined.haul_unit_id, record.create_time_us,
                    joined.first_pass);
-        upsert.Bind(1, cell.bucket_us);
-        upsert.Bind(2, cell.container_id);
-        upsert.Bind(3, cell.haul_unit_id);
-        upsert.Bind(4, cell.material);
-        upsert.Bind(5, cell.passes);
-        upsert.Bind(6, cell.loads);
-        upsert.Bind(7, cell.volume_m3);
-        upsert.Bind(8, cell.bank_volume_m3);
-        upsert.Bind(9, cell.mass_kg);
-        upsert.Bind(10, cell.mass_passes);
-        upsert.Bind(11, cell.fill_ratio_sum);
-        for (int i = 0; i < ProductionCell::kStatuses; ++i) upsert.Bind(12 + i, cell.statuses[i]);
-        SOILVOL_RETURN_IF_ERROR(upsert.Step("add to production").status());
-        upsert.Reset();
+        fine.Bind(1, cell.bucket_us);
+        fine.Bind(2, cell.container_id);
+        fine.Bind(3, cell.haul_unit_id);
+        fine.Bind(4, cell.material);
+        BindValues(fine, 5, cell);
+        SOILVOL_RETURN_IF_ERROR(fine.Step("add to production").status());
+        fine.Reset();
+        for (const RollupKey& key : RollupKeysOf(cell)) {
+            rollup.Bind(1, key.granularity_us);
+            rollup.Bind(2, std::int64_t{key.dimension});
+            rollup.Bind(3, key.bucket_us);
+            rollup.Bind(4, key.key);
+            BindValues(rollup, 5, cell);
+            SOILVOL_RETURN_IF_ERROR(rollup.Step("add to production").status());
+            rollup.Reset();
+        }
+        return absl::OkStatus();
+    }
+
+    /// The rollup made anew from the fine table (in the caller's transaction).
+    absl::Status RebuildRollup() {
+        for (const std::string& sql : RollupRebuildSql("production", "production_rollup")) {
+            SOILVOL_RETURN_IF_ERROR(Exec(sql.c_str()));
+        }
         return absl::OkStatus();
     }
 

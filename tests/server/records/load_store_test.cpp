@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <thread>
+#include <tuple>
 
 #include "server/records/load_record.hpp"
 #include "server/records/record_store.hpp"
@@ -211,35 +212,58 @@ TEST_P(LoadStoreTest, ProductionRollupSumsTheKeptRecordsButBodyScans) {
         measured(Pass("nope", 3 * kMinute), 9.0, 4, 1.0),                         // rejected
         measured(Pass("", 20 * kMinute), 0.5, 2, std::nullopt)};                  // no load
     batch[4].load.reset();
+    EstimateRecord other = measured(Pass("", 5 * kMinute), 0.25, 4, std::nullopt);
+    other.load.reset();
+    other.container_id = "other";
+    other.measures.material = "sand";
+    batch.push_back(other);
     ASSERT_TRUE(store->Append(batch).ok());
-    auto cells = store->ProductionCells(0, 60 * kMinute);
-    ASSERT_TRUE(cells.ok()) << cells.status();
-    ASSERT_EQ(cells->size(), 2u);
-    std::sort(cells->begin(), cells->end(),
-              [](const auto& a, const auto& b) { return a.bucket_us < b.bucket_us; });
-    const ProductionCell& first = (*cells)[0];
-    EXPECT_EQ(first.bucket_us, 0);
-    EXPECT_EQ(first.container_id, "bucket");
-    EXPECT_EQ(first.haul_unit_id, "truck-7");
-    EXPECT_EQ(first.material, "clay");
-    EXPECT_EQ(first.passes, 2);
-    EXPECT_EQ(first.loads, 1);  // the load's first pass
-    EXPECT_DOUBLE_EQ(first.volume_m3, 3.0);
-    EXPECT_DOUBLE_EQ(first.bank_volume_m3, 2.4);
-    EXPECT_DOUBLE_EQ(first.mass_kg, 4800.0);
-    EXPECT_EQ(first.mass_passes, 2);
-    EXPECT_DOUBLE_EQ(first.fill_ratio_sum, 1.5);
-    EXPECT_EQ(first.statuses[4], 1);
-    EXPECT_EQ(first.statuses[5], 1);
-    const ProductionCell& later = (*cells)[1];
-    EXPECT_EQ(later.bucket_us, 15 * kMinute);
-    EXPECT_EQ(later.haul_unit_id, "");
-    EXPECT_EQ(later.mass_passes, 0);
-    EXPECT_EQ(later.statuses[2], 1);
-    // The range is by bucket; purging the container's records purges its production.
-    EXPECT_EQ(store->ProductionCells(15 * kMinute, 30 * kMinute)->size(), 1u);
+    const auto sorted = [](std::vector<ProductionCell> cells) {
+        std::sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) {
+            return std::tie(a.bucket_us, a.container_id, a.haul_unit_id, a.material) <
+                   std::tie(b.bucket_us, b.container_id, b.haul_unit_id, b.material);
+        });
+        return cells;
+    };
+    constexpr std::int64_t kQuarter = kProductionBucketUs, kHour = 4 * kProductionBucketUs;
+    auto trucks = store->ProductionCells(0, kHour, kByHaulUnit, kQuarter);
+    ASSERT_TRUE(trucks.ok()) << trucks.status();
+    const std::vector<ProductionCell> by_truck = sorted(*trucks);
+    ASSERT_EQ(by_truck.size(), 3u);  // 0-15: "" (other) and truck-7; 15-30: ""
+    const ProductionCell& truck = by_truck[1];
+    EXPECT_EQ(truck.bucket_us, 0);
+    EXPECT_EQ(truck.haul_unit_id, "truck-7");
+    EXPECT_EQ(truck.container_id, "");  // only its dimension's key
+    EXPECT_EQ(truck.passes, 2);
+    EXPECT_EQ(truck.loads, 1);  // the load's first pass
+    EXPECT_DOUBLE_EQ(truck.volume_m3, 3.0);
+    EXPECT_DOUBLE_EQ(truck.bank_volume_m3, 2.4);
+    EXPECT_DOUBLE_EQ(truck.mass_kg, 4800.0);
+    EXPECT_EQ(truck.mass_passes, 2);
+    EXPECT_DOUBLE_EQ(truck.fill_ratio_sum, 1.5);
+    EXPECT_EQ(truck.statuses[4], 1);
+    EXPECT_EQ(truck.statuses[5], 1);
+    EXPECT_EQ(by_truck[2].bucket_us, 15 * kMinute);
+    EXPECT_EQ(by_truck[2].mass_passes, 0);
+    EXPECT_EQ(by_truck[2].statuses[2], 1);
+    // An hour's material: every pass of the hour, the body scan and the refused pass left out.
+    const std::vector<ProductionCell> materials =
+        sorted(*store->ProductionCells(0, kHour, kByMaterial, kHour));
+    ASSERT_EQ(materials.size(), 2u);
+    EXPECT_EQ(materials[0].material, "clay");
+    EXPECT_EQ(materials[0].passes, 3);
+    EXPECT_DOUBLE_EQ(materials[0].volume_m3, 3.5);
+    EXPECT_EQ(materials[1].material, "sand");
+    // The range is by bucket.
+    EXPECT_EQ(store->ProductionCells(15 * kMinute, 30 * kMinute, kTotal, kQuarter)->size(), 1u);
+    // Purging a container's records purges its production, every dimension of it.
     ASSERT_TRUE(store->DeleteContainer("bucket").ok());
-    EXPECT_TRUE(store->ProductionCells(0, 60 * kMinute)->empty());
+    const auto total = store->ProductionCells(0, kHour, kTotal, kHour);
+    ASSERT_TRUE(total.ok()) << total.status();
+    ASSERT_EQ(total->size(), 1u);
+    EXPECT_EQ((*total)[0].passes, 1);
+    EXPECT_DOUBLE_EQ((*total)[0].volume_m3, 0.25);
+    EXPECT_TRUE(store->ProductionCells(0, kHour, kByHaulUnit, kQuarter)->size() == 1u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, LoadStoreTest, ::testing::Values("sqlite", "postgresql"),

@@ -161,7 +161,7 @@ class DownStore final : public RecordStore {
                                          std::optional<std::int64_t>) override {
         return absl::UnavailableError("connection refused");
     }
-    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t,
+    absl::StatusOr<std::vector<ProductionCell>> ProductionCells(std::int64_t, std::int64_t, int,
                                                                 std::int64_t) override {
         return absl::UnavailableError("connection refused");
     }
