@@ -3,7 +3,9 @@
 of N records over 30 days (20 excavators taking turns, loads of 4-6 passes of 60 trucks) made by
 soilvol-records-gen through the server's own RecordStore, then a soilvol-server on it and
 GetProduction over gRPC from here, each query ROUNDS times (median and max, in ms, the round
-trip as a client sees it). PostgreSQL: a server started here (scripts/test-postgres.sh); the
+trip as a client sees it); then every record exported as CSV over REST (GET
+/v1/containers/-/estimates:export), read here at full speed: the rows, the time and the server's
+resident memory (its /metrics) before and at the end. PostgreSQL: a server started here (scripts/test-postgres.sh); the
 generator commits without waiting for the disk (synchronous_commit off: the figures are the
 queries', not the generation's).
 Usage: bench/load/production.py [--build build] [--records 1000000] [--rounds 7]
@@ -18,6 +20,38 @@ import time
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 sys.path.insert(0, os.path.join(ROOT, "tests", "integration"))
+
+
+def resident_bytes(server):
+    import urllib.request
+    with urllib.request.urlopen(server.base_url + "/metrics", timeout=30) as answer:
+        for line in answer.read().decode().splitlines():
+            if line.startswith("process_resident_memory_bytes "):
+                return float(line.split()[1])
+    return float("nan")
+
+
+def export_row(server, name):
+    """Every record as CSV, read as fast as this process can: rows, seconds, resident memory."""
+    import urllib.request
+    before = resident_bytes(server)
+    peak = before
+    start = time.perf_counter()
+    rows = 0
+    url = server.base_url + "/v1/containers/-/estimates:export?format=csv&registrationId=-"
+    with urllib.request.urlopen(url, timeout=600) as answer:
+        while True:
+            block = answer.read(1 << 20)
+            if not block:
+                break
+            rows += block.count(b"\n")
+            if rows % 50 < 5:
+                peak = max(peak, resident_bytes(server))
+    seconds = time.perf_counter() - start
+    after = resident_bytes(server)
+    return (f"<!-- {name}: exported {rows - 1} records as CSV in {seconds:.1f} s; server resident "
+            f"memory {before / 2**20:.0f} MiB before, {max(peak, after) / 2**20:.0f} MiB at most "
+            f"seen, {after / 2**20:.0f} MiB after -->")
 
 
 def main():
@@ -84,6 +118,7 @@ def main():
                 passes = sum(r.passes for r in total.rows)
                 print(f"<!-- {name}: the rollup counts {passes} passes of {args.records} records -->")
                 channel.close()
+                print(export_row(server, name))
     finally:
         subprocess.run([os.path.join(ROOT, "scripts", "test-postgres.sh"), "stop", pg], capture_output=True)
         subprocess.run(["rm", "-rf", work, pg])

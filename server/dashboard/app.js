@@ -1,7 +1,10 @@
 // soilvol dashboard: plain JavaScript over the REST gateway (same origin), no build step.
 // Containers with their last load (fill gauge, status), live updates from
 // GET /v1/estimates:watch (Server-Sent Events read through fetch, so that a bearer token can go
-// with it), the selected container's heightmap, distribution and history, and an upload form.
+// with it), the selected container's heightmap, distribution and history, and an upload form;
+// the shift's totals and truck loads are shift.js's.
+
+import { startShift, shiftChanged } from "./shift.js";
 
 const state = {
   containers: new Map(),   // id -> Container
@@ -496,6 +499,7 @@ function handleEvent(block) {
   const estimate = JSON.parse(data.join("\n"));
   if (id) state.lastEventId = id;
   addEstimate(estimate, true);
+  shiftChanged();
   if (!state.containers.has(estimate.containerId)) {
     refresh();
     return;
@@ -566,6 +570,7 @@ function startZone() {
 
 function start() {
   startZone();
+  startShift({ api, headers, timeText, fmt, $, showError });
   $("token-button").addEventListener("click", () => $("token-panel").classList.toggle("hidden"));
   $("token-save").addEventListener("click", () => {
     localStorage.setItem("soilvol.token", $("token-input").value.trim());

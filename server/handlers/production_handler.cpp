@@ -63,6 +63,15 @@ int DimensionOf(v1::ProductionGrouping grouping) {
     }
 }
 
+/// One row per period, in order: `rows` (one per period at most) with empty periods added.
+std::vector<ProductionRow> EveryPeriod(const std::vector<ProductionRow>& rows,
+                                       const std::vector<Period>& periods) {
+    std::vector<ProductionRow> out(periods.size());
+    for (std::size_t i = 0; i < periods.size(); ++i) out[i].period = i;
+    for (const ProductionRow& row : rows) out[row.period] = row;
+    return out;
+}
+
 /// "loaded_ok" for LOAD_STATUS_LOADED_OK.
 std::string StatusKey(int status) {
     const std::string& name = v1::LoadStatus_Name(static_cast<v1::LoadStatus>(status));
@@ -161,7 +170,9 @@ absl::Status SoilVolumeHandlers::GetProduction(const v1::GetProductionRequest& r
         const std::vector<ProductionCell> cells,
         store->ProductionCells(periods.front().start_us, periods.back().end_us,
                                DimensionOf(request.group_by()), RollupGranularityFor(periods)));
-    const std::vector<ProductionRow> rows = SumProduction(cells, periods, GroupOf(request));
+    std::vector<ProductionRow> rows = SumProduction(cells, periods, GroupOf(request));
+    if (request.group_by() == v1::PRODUCTION_GROUPING_UNSPECIFIED)
+        rows = EveryPeriod(rows, periods);
     const std::size_t first = static_cast<std::size_t>(offset.value_or(0));
     const std::size_t last = std::min(rows.size(), first + static_cast<std::size_t>(size));
     for (std::size_t i = first; i < last; ++i) {

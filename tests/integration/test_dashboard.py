@@ -319,6 +319,77 @@ class Dashboard(unittest.TestCase):
             finally:
                 browser.close()
 
+    def test_the_shift_its_loads_and_downloads_at_three_widths(self):
+        """The shift's strip (its totals as GetProduction has them), its truck loads with their
+        passes against the target and the body scan's reconciliation, and the CSV downloads,
+        at 1280, 900 and 420 px."""
+        with Server(args=["--workers", "2", "--site-time-zone", "Europe/Berlin"]) as server:
+            self.assertEqual(register(server, "bucket-1", "Bucket 1", 0.5)[0], 200)
+            self.assertEqual(register(server, "body-1", "Body 1", 0.25)[0], 200)
+            status, load = server.rest("POST", "/v1/loads", {
+                "loadId": "truck-7-load", "load": {"haulUnitId": "truck-7",
+                                                   "bodyContainerId": "body-1",
+                                                   "displayName": "Truck 7"}})
+            self.assertEqual(status, 200, load)
+            for i, fill in enumerate((0.10, 0.12)):
+                scan = box_scene.encode_ply(box_scene.box_scan(fill, seed=60 + i))
+                status, answer = server.rest("POST", "/v1/containers/bucket-1:estimate", {
+                    "scan": cloud_scan(scan), "loadId": "truck-7-load"})
+                self.assertEqual(status, 200, answer)
+            body = box_scene.encode_ply(box_scene.box_scan(0.22, seed=70))
+            status, answer = server.rest("POST", "/v1/containers/body-1:estimate", {
+                "scan": cloud_scan(body), "loadId": "truck-7-load"})
+            self.assertEqual(status, 200, answer)
+            for width in (1280, 900, 420):
+                browser = Browser(width=width, height=1100, zone="Europe/Berlin")
+                try:
+                    browser.call("Emulation.setDeviceMetricsOverride",
+                                 {"width": width, "height": 1100, "deviceScaleFactor": 1,
+                                  "mobile": width < 500}, session=True)
+                    browser.call("Page.navigate", {"url": server.base_url + "/"}, session=True)
+                    self.assertTrue(browser.wait_for(
+                        "document.querySelectorAll('[data-load-id=\"truck-7-load\"] .pass')"
+                        ".length === 2", 10), browser.errors())
+                    # The strip: the shift's passes (the body scan is no pass), its volume.
+                    self.assertEqual(browser.evaluate(
+                        "document.getElementById('shift-strip').dataset.passes"), "2")
+                    shown = float(browser.evaluate(
+                        "document.getElementById('shift-strip').dataset.volume"))
+                    status, got = server.rest("GET", "/v1/loads/truck-7-load")
+                    self.assertAlmostEqual(shown, got["volumeM3"], places=9)
+                    reconcile = browser.evaluate(
+                        "document.querySelector('[data-load-id=\"truck-7-load\"] .reconcile')"
+                        ".textContent")
+                    self.assertIn("body scan", reconcile)
+                    self.assertIn(browser.evaluate("document.getElementById('shift-zone')"
+                                                   ".textContent"), ("site time, Europe/Berlin",))
+                    self.assertLessEqual(
+                        browser.evaluate("document.documentElement.scrollWidth"),
+                        browser.evaluate("window.innerWidth"), f"overflows at {width} px")
+                    os.makedirs(SCREENSHOTS, exist_ok=True)
+                    browser.screenshot(os.path.join(SCREENSHOTS, f"shift-{width}px.png"))
+                    self.assertEqual(browser.errors(), [])
+                finally:
+                    browser.close()
+            # The downloads the buttons make: the shift's CSV, fetched as the page does.
+            browser = Browser()
+            try:
+                browser.call("Page.navigate", {"url": server.base_url + "/"}, session=True)
+                self.assertTrue(browser.wait_for(
+                    "document.getElementById('shift-select').value !== ''", 10), browser.errors())
+                browser.evaluate(
+                    "(() => { const s = document.getElementById('shift-select').value;"
+                    " window.__csv = null;"
+                    " fetch('/v1/loads:export').then((r) => r.text()).then((t) => { window.__csv = t; });"
+                    " return true; })()")
+                self.assertTrue(browser.wait_for("window.__csv !== null", 10))
+                lines = browser.evaluate("window.__csv").strip().split("\r\n")
+                self.assertTrue(lines[0].startswith("load_id,haul_unit_id"), lines[0])
+                self.assertEqual(len(lines), 2)
+                self.assertTrue(lines[1].startswith("truck-7-load,truck-7,body-1,Truck 7,"))
+            finally:
+                browser.close()
+
     def test_with_token_auth(self):
         folder = tempfile.mkdtemp(prefix="soilvol-dash-auth-")
         tokens = os.path.join(folder, "tokens")
