@@ -9,6 +9,7 @@ resident memory (its /metrics) before and at the end. PostgreSQL: a server start
 generator commits without waiting for the disk (synchronous_commit off: the figures are the
 queries', not the generation's).
 Usage: bench/load/production.py [--build build] [--records 1000000] [--rounds 7]
+       [--databases sqlite,postgresql]
 """
 import argparse
 import os
@@ -59,6 +60,7 @@ def main():
     parser.add_argument("--build", default="build")
     parser.add_argument("--records", type=int, default=1_000_000)
     parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--databases", default="sqlite,postgresql")
     args = parser.parse_args()
     build = os.path.abspath(args.build)
     os.environ.setdefault("SOILVOL_SERVER_BIN", os.path.join(build, "server", "soilvol-server"))
@@ -79,13 +81,19 @@ def main():
         print("| database | query | rows | median ms | max ms |")
         print("|---|---|---|---|---|")
         for name, url in backends.items():
+            if name not in args.databases.split(","):
+                continue
             gen_url = url + ("&options=-c%20synchronous_commit%3Doff" if name == "postgresql" else "")
             made = subprocess.run(
                 [os.path.join(build, "bench", "soilvol-records-gen"), "--url", gen_url, "--records",
                  str(args.records), "--end-us", str(end_us)], check=True, capture_output=True, text=True)
             print(f"<!-- {name}: {made.stdout.strip()} -->")
+            # Retention off: the server keeps what was generated (its defaults would prune the
+            # records to 10000 a container at start; production is never pruned).
             with Server(data_dir=work, args=["--workers", "2", "--records-url", url,
-                                              "--site-time-zone", "Europe/Berlin"]) as server:
+                                              "--site-time-zone", "Europe/Berlin",
+                                              "--records-max-per-container", "100000000",
+                                              "--records-max-age-days", "36500"]) as server:
                 channel = server.channel(grpc)
                 stub = pb_grpc.SoilVolumeStub(channel)
                 day = 86400

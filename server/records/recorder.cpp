@@ -95,47 +95,51 @@ void EstimateRecorder::Run() {
         }
         lock.unlock();
         room_.notify_all();
-        std::vector<EstimateRecord> records;
-        records.reserve(batch.size());
-        for (Pending& pending : batch) records.push_back(std::move(pending.record));
-        const absl::Status status = store_.Append(records);
-        {
-            // Counted before any caller returns, so that what a caller sees includes its own.
-            std::lock_guard<std::mutex> counted(mutex_);
-            ++stats_.batches;
-            committed_total_ += records.size();
-            if (status.ok()) {
-                for (const EstimateRecord& record : records) {
-                    if (record.id == 0) continue;  // rejected by its load
-                    ++stats_.records;
-                    newest_ = std::max(newest_, record.id);
-                }
-            } else {
-                stats_.failures += records.size();
-            }
-        }
-        committed_.notify_all();  // watchers first: the record is there for them to read
-        for (std::size_t i = 0; i < batch.size(); ++i) {
-            if (status.ok() && !records[i].rejected.ok()) {
-                batch[i].committed(records[i].rejected);
-            } else if (status.ok()) {
-                batch[i].committed(records[i].id);
-            } else {
-                batch[i].committed(status);
-            }
-        }
-        {
-            std::lock_guard<std::mutex> answered(mutex_);
-            answered_total_ += batch.size();
-        }
-        committed_.notify_all();
-        if (status.ok()) {
-            for (const EstimateRecord& record : records) {
-                if (record.id != 0) touched_.insert(record.container_id);
-            }
-        }
+        Commit(batch);
         if (std::chrono::steady_clock::now() - last_prune_ >= config_.prune_every) Prune(false);
         lock.lock();
+    }
+}
+
+void EstimateRecorder::Commit(std::vector<Pending>& batch) {
+    std::vector<EstimateRecord> records;
+    records.reserve(batch.size());
+    for (Pending& pending : batch) records.push_back(std::move(pending.record));
+    const absl::Status status = store_.Append(records);
+    {
+        // Counted before any caller returns, so that what a caller sees includes its own.
+        std::lock_guard<std::mutex> counted(mutex_);
+        ++stats_.batches;
+        committed_total_ += records.size();
+        if (status.ok()) {
+            for (const EstimateRecord& record : records) {
+                if (record.id == 0) continue;  // rejected by its load
+                ++stats_.records;
+                newest_ = std::max(newest_, record.id);
+            }
+        } else {
+            stats_.failures += records.size();
+        }
+    }
+    committed_.notify_all();  // watchers first: the record is there for them to read
+    for (std::size_t i = 0; i < batch.size(); ++i) {
+        if (!status.ok()) {
+            batch[i].committed(status);
+        } else if (!records[i].rejected.ok()) {
+            batch[i].committed(records[i].rejected);
+        } else {
+            batch[i].committed(records[i].id);
+        }
+    }
+    {
+        std::lock_guard<std::mutex> answered(mutex_);
+        answered_total_ += batch.size();
+    }
+    committed_.notify_all();
+    if (status.ok()) {
+        for (const EstimateRecord& record : records) {
+            if (record.id != 0) touched_.insert(record.container_id);
+        }
     }
 }
 

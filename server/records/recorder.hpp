@@ -9,6 +9,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "server/records/record_store.hpp"
 
@@ -69,6 +70,8 @@ class EstimateRecorder {
         Committed committed;
     };
     void Run();
+    /// Appends `batch` in one transaction and tells each caller (recorder thread, unlocked).
+    void Commit(std::vector<Pending>& batch);
     /// Applies the retention policy to every container, or to those in touched_.
     void Prune(bool every_container);
 
