@@ -164,6 +164,52 @@ class ProductionContract:
         self.assertEqual(sum(int(r["passes"]) for r in mine), 3)
         self.assertIn("statusCounts", mine[0])
 
+    def test_exports_stream_the_lists_as_csv_and_json_lines(self):
+        import csv
+        import io
+        import json
+        import urllib.request
+
+        def fetch(path):
+            with urllib.request.urlopen(self.server.base_url + path, timeout=60) as answer:
+                return answer.headers, answer.read().decode()
+
+        # A container's records, newest first, as ListEstimates has them.
+        head, text = fetch(f"/v1/containers/{self.a}/estimates:export")
+        self.assertEqual(head["Content-Type"], "text/csv; charset=utf-8")
+        self.assertIn("attachment", head["Content-Disposition"])
+        rows = list(csv.DictReader(io.StringIO(text)))
+        mine = [e for e in self.kept if e.container_id == self.a]
+        self.assertEqual([r["estimate_id"] for r in rows], [e.estimate_id for e in reversed(mine)])
+        for row, e in zip(rows, reversed(mine)):
+            self.assertAlmostEqual(float(row["volume_m3"]), e.volume_m3, places=6)
+            self.assertEqual(row["load_id"], e.load_id)
+        # The truck's loads as JSON lines.
+        truck = self.prefix + "-truck"
+        head, text = fetch(f"/v1/loads:export?format=jsonl&haulUnitId={truck}")
+        self.assertEqual(head["Content-Type"], "application/x-ndjson")
+        loads = [json.loads(line) for line in text.splitlines()]
+        self.assertEqual(len(loads), 1)
+        self.assertEqual(loads[0]["haulUnitId"], truck)
+        self.assertEqual(loads[0]["passCount"], 3)
+        # Production: the rows GetProduction gives for the same request.
+        start = timestamp_pb2.Timestamp(seconds=self.before.seconds - 3600).ToJsonString()
+        end = timestamp_pb2.Timestamp(seconds=self.after.seconds + 3600).ToJsonString()
+        query = (f"startTime={start}&endTime={end}&period=PRODUCTION_PERIOD_HOUR"
+                 "&groupBy=PRODUCTION_GROUPING_CONTAINER")
+        _, text = fetch(f"/v1/production:export?{query}")
+        exported = list(csv.DictReader(io.StringIO(text)))
+        _, listed = self.server.rest("GET", f"/v1/production?{query}&pageSize=1000")
+        self.assertEqual([(r["period"], r["group"]) for r in exported],
+                         [(r["period"], r["group"]) for r in listed["rows"]])
+        self.assertEqual(sum(int(r["passes"]) for r in exported),
+                         sum(int(r["passes"]) for r in listed["rows"]))
+        for path, field in ((f"/v1/loads:export?format=xlsx", "format"),
+                            ("/v1/production:export", "start_time")):
+            status, body = self.server.rest("GET", path)
+            self.assertEqual(status, 400, body)
+            self.assertTrue(body["message"].startswith(field), body)
+
     def test_bad_requests_name_their_field(self):
         start = timestamp_pb2.Timestamp(seconds=1_700_000_000)
         cases = [
