@@ -77,9 +77,8 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (!(o.load_idle_s >= 0.0 && o.load_idle_s <= 7 * 86400.0)) {
         return Invalid("load-idle-seconds", "must be in [0, 604800] (0: never)");
     }
-    absl::TimeZone zone;
-    if (!absl::LoadTimeZone(o.site_time_zone, &zone)) {
-        return Invalid("site-time-zone", "is not an IANA time zone (Europe/Berlin; tzdata)");
+    if (absl::Status zone = LoadSiteZone(o.site_time_zone, "site-time-zone").status(); !zone.ok()) {
+        return Invalid("site-time-zone", std::string(zone.message().substr(16)));
     }
     if (absl::Status starts = ParseShiftStarts(o.shift_starts, "shift-starts").status();
         !starts.ok()) {

@@ -102,10 +102,7 @@ absl::StatusOr<SiteCalendar> SoilVolumeHandlers::CalendarOf(const v1::GetProduct
     const std::string& zone_name =
         request.time_zone().empty() ? options_.site_time_zone : request.time_zone();
     SiteCalendar calendar;
-    if (zone_name.size() > 64 || !absl::LoadTimeZone(zone_name, &calendar.zone)) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("time_zone: '", zone_name, "' is not an IANA time zone (Europe/Berlin)"));
-    }
+    SOILVOL_ASSIGN_OR_RETURN(calendar.zone, LoadSiteZone(zone_name, "time_zone"));
     std::vector<std::string> starts(request.shift_starts().begin(), request.shift_starts().end());
     if (starts.empty()) starts = options_.shift_starts;
     SOILVOL_ASSIGN_OR_RETURN(calendar.shift_starts_min, ParseShiftStarts(starts, "shift_starts"));

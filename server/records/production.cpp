@@ -6,8 +6,10 @@
 #include <map>
 #include <utility>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_split.h"
 
 namespace soilvol::server {
 namespace {
@@ -176,6 +178,28 @@ std::vector<std::string> RollupRebuildSql(const std::string& fine, const std::st
         }
     }
     return out;
+}
+
+absl::StatusOr<absl::TimeZone> LoadSiteZone(const std::string& name, const char* field) {
+    const auto refused = [&] {
+        return absl::InvalidArgumentError(
+            absl::StrCat(field, ": not an IANA time zone name (Europe/Berlin)"));
+    };
+    if (name.empty() || name.size() > 64) return refused();
+    for (const absl::string_view segment : absl::StrSplit(name, '/')) {
+        if (segment.empty() || segment == "." || segment == "..") return refused();
+        for (const char c : segment) {
+            const bool allowed = absl::ascii_isalnum(static_cast<unsigned char>(c)) || c == '_' ||
+                                 c == '+' || c == '-';
+            if (!allowed) return refused();
+        }
+    }
+    absl::TimeZone zone;
+    if (!absl::LoadTimeZone(name, &zone)) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            field, ": '", name, "' is not in this system's time zone database (tzdata)"));
+    }
+    return zone;
 }
 
 absl::StatusOr<std::vector<int>> ParseShiftStarts(const std::vector<std::string>& starts,

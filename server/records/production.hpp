@@ -93,6 +93,11 @@ struct SiteCalendar {
     std::vector<int> shift_starts_min;
 };
 
+/// An IANA zone by its name ("Europe/Berlin", "UTC"): 1-64 characters, segments of
+/// [A-Za-z0-9_+-] between single slashes (no path of its own: a name never reaches beyond the
+/// zone database), found in the system's tzdata. InvalidArgument naming `field` otherwise.
+absl::StatusOr<absl::TimeZone> LoadSiteZone(const std::string& name, const char* field);
+
 /// "06:00,18:00" (local times, each a multiple of 15 minutes, 1 to 12 of them) into minutes;
 /// InvalidArgument naming `field` otherwise. Duplicates are refused; the order need not be.
 absl::StatusOr<std::vector<int>> ParseShiftStarts(const std::vector<std::string>& starts,

@@ -51,6 +51,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::size_t question = target.find('?');
     const std::string path = target.substr(0, question);
     const std::string query = question == std::string::npos ? "" : target.substr(question + 1);
+    // An export path names its list's path, and keeps every query part but its format.
+    if (const auto exported = soilvol::server::ExportPathOf(path, query)) {
+        if (path.compare(0, exported->list_path.size(), exported->list_path) != 0 ||
+            exported->query.size() > query.size() || exported->format.size() > query.size() + 3) {
+            std::abort();
+        }
+    }
     const auto match = soilvol::server::MatchRoute(Routes(), verb, path);
     if (!match.ok()) return 0;
     if (match->route == nullptr) std::abort();

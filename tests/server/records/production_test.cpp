@@ -38,6 +38,20 @@ TEST(Production, ShiftStartsAreQuarterHoursSortedAndUnique) {
     }
 }
 
+TEST(Production, ZoneNamesStayInTheZoneDatabase) {
+    EXPECT_TRUE(LoadSiteZone("Europe/Berlin", "time_zone").ok());
+    EXPECT_TRUE(LoadSiteZone("UTC", "time_zone").ok());
+    EXPECT_TRUE(LoadSiteZone("America/Argentina/Buenos_Aires", "time_zone").ok());
+    for (const char* bad :
+         {"", "/etc/passwd", "../../../etc/passwd", "Europe/../../etc/passwd", "Europe//Berlin",
+          "Europe/Berlin ", "Mars/Olympus", "Europe/Berlin\n", "/dev/stdin", "./UTC"}) {
+        const auto zone = LoadSiteZone(bad, "time_zone");
+        EXPECT_TRUE(absl::IsInvalidArgument(zone.status())) << bad;
+        EXPECT_EQ(std::string(zone.status().message()).rfind("time_zone: ", 0), 0u) << bad;
+    }
+    EXPECT_FALSE(LoadSiteZone(std::string(65, 'A'), "time_zone").ok());
+}
+
 TEST(Production, DaysFollowTheZoneAcrossClockChanges) {
     const SiteCalendar berlin{Zone("Europe/Berlin"), {360}};
     const auto days = MakePeriods(berlin, ProductionPeriod::kDay, At("2026-03-28T12:00:00Z"),
