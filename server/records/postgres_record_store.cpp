@@ -5,6 +5,7 @@
 #include <pqxx/pqxx>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/common/status_macros.hpp"
 #include "server/records/record_store.hpp"
 
@@ -154,19 +155,47 @@ ProductionCell PgCellFrom(const pqxx::row& row, int dimension) {
     return cell;
 }
 
-void PgAddProduction(pqxx::work& work, const EstimateRecord& record, const JoinedLoad& joined) {
-    const ProductionCell c = CellOf(record.measures, record.container_id, joined.haul_unit_id,
-                                    record.create_time_us, joined.first_pass);
-    const auto& s = c.statuses;
-    work.exec_params(ProductionUpsertSql("soilvol_production", '$'), c.bucket_us, c.container_id,
-                     c.haul_unit_id, c.material, c.passes, c.loads, c.volume_m3, c.bank_volume_m3,
-                     c.mass_kg, c.mass_passes, c.fill_ratio_sum, s[0], s[1], s[2], s[3], s[4], s[5],
-                     s[6]);
-    static const std::string rollup = RollupUpsertSql("soilvol_production_rollup", '$');
-    for (const RollupKey& k : RollupKeysOf(c)) {
-        work.exec_params(rollup, k.granularity_us, k.dimension, k.bucket_us, k.key, c.passes,
-                         c.loads, c.volume_m3, c.bank_volume_m3, c.mass_kg, c.mass_passes,
-                         c.fill_ratio_sum, s[0], s[1], s[2], s[3], s[4], s[5], s[6]);
+/// A cell's 14 values as parameters, after its 4 keys.
+void AppendValues(const ProductionCell& c, std::vector<std::string>& params) {
+    const auto number = [](double v) { return absl::StrFormat("%.17g", v); };
+    for (const std::int64_t n : {c.passes, c.loads}) params.push_back(std::to_string(n));
+    for (const double v : {c.volume_m3, c.bank_volume_m3, c.mass_kg}) params.push_back(number(v));
+    params.push_back(std::to_string(c.mass_passes));
+    params.push_back(number(c.fill_ratio_sum));
+    for (const std::int64_t n : c.statuses) params.push_back(std::to_string(n));
+}
+
+/// The batch's production in two statements (each of up to 1000 rows: the fine cells, then
+/// the rollup's), not one round trip per record and rollup row: the commit an answer waits for
+/// is in series with every estimate.
+void PgAddProduction(pqxx::work& work, const std::vector<ProductionCell>& cells) {
+    if (cells.empty()) return;
+    const ProductionBatch batch = SumBatch(cells);
+    constexpr std::size_t kRows = 1000;
+    for (std::size_t first = 0; first < batch.fine.size(); first += kRows) {
+        const std::size_t n = std::min(kRows, batch.fine.size() - first);
+        std::vector<std::string> params;
+        for (std::size_t i = first; i < first + n; ++i) {
+            const ProductionCell& c = batch.fine[i];
+            params.insert(params.end(), {std::to_string(c.bucket_us), c.container_id,
+                                         c.haul_unit_id, c.material});
+            AppendValues(c, params);
+        }
+        work.exec_params(ProductionUpsertSql("soilvol_production", '$', static_cast<int>(n)),
+                         pqxx::prepare::make_dynamic_params(params));
+    }
+    for (std::size_t first = 0; first < batch.rollup.size(); first += kRows) {
+        const std::size_t n = std::min(kRows, batch.rollup.size() - first);
+        std::vector<std::string> params;
+        for (std::size_t i = first; i < first + n; ++i) {
+            const auto& [key, c] = batch.rollup[i];
+            params.insert(params.end(),
+                          {std::to_string(key.granularity_us), std::to_string(key.dimension),
+                           std::to_string(key.bucket_us), key.key});
+            AppendValues(c, params);
+        }
+        work.exec_params(RollupUpsertSql("soilvol_production_rollup", '$', static_cast<int>(n)),
+                         pqxx::prepare::make_dynamic_params(params));
     }
 }
 
@@ -235,6 +264,7 @@ class PostgresRecordStore final : public RecordStore {
     absl::Status Append(std::vector<EstimateRecord>& records) override {
         absl::Status status = Run("append", [&records](pqxx::work& work) {
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
+            std::vector<ProductionCell> production;
             for (EstimateRecord& record : records) {
                 record.id = 0;
                 JoinedLoad joined;
@@ -251,8 +281,13 @@ class PostgresRecordStore final : public RecordStore {
                     record.registration_id, record.load ? record.load->load_id : std::string(),
                     record.load ? record.load->role : 0);
                 record.id = id[0][0].as<std::int64_t>();
-                if (!joined.body_scan) PgAddProduction(work, record, joined);
+                if (!joined.body_scan) {
+                    production.push_back(CellOf(record.measures, record.container_id,
+                                                joined.haul_unit_id, record.create_time_us,
+                                                joined.first_pass));
+                }
             }
+            PgAddProduction(work, production);
         });
         if (!status.ok()) {
             for (EstimateRecord& record : records) record.id = 0;

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <iterator>
 #include <map>
+#include <tuple>
 #include <utility>
 
 #include "absl/strings/ascii.h"
@@ -131,28 +132,76 @@ std::string ValueList(const char* wrap) {
 
 }  // namespace
 
-std::string ProductionUpsertSql(const std::string& table, char p) {
-    std::string params;
-    for (int n = 1; n <= 4 + static_cast<int>(std::size(kValueColumns)); ++n) {
-        absl::StrAppend(&params, n == 1 ? "" : ", ", Param(p, n));
+namespace {
+
+/// "(p1, ..., p18), (p19, ...)": `rows` rows of a cell's 18 parameters.
+std::string ParamRows(char p, int rows) {
+    constexpr int kPerRow = 4 + static_cast<int>(std::size(kValueColumns));
+    std::string out;
+    for (int row = 0; row < rows; ++row) {
+        absl::StrAppend(&out, row == 0 ? "(" : ", (");
+        for (int i = 1; i <= kPerRow; ++i) {
+            absl::StrAppend(&out, i == 1 ? "" : ", ", Param(p, row * kPerRow + i));
+        }
+        out += ")";
     }
+    return out;
+}
+
+}  // namespace
+
+std::string ProductionUpsertSql(const std::string& table, char p, int rows) {
     return absl::StrCat("INSERT INTO ", table,
                         " (bucket_us, container_id, haul_unit_id, material, ", ValueList(""),
-                        ") VALUES (", params,
-                        ") ON CONFLICT (bucket_us, container_id, haul_unit_id, material) DO "
+                        ") VALUES ", ParamRows(p, rows),
+                        " ON CONFLICT (bucket_us, container_id, haul_unit_id, material) DO "
                         "UPDATE SET ",
                         AddedValues(table));
 }
 
-std::string RollupUpsertSql(const std::string& table, char p) {
-    std::string params;
-    for (int n = 1; n <= 4 + static_cast<int>(std::size(kValueColumns)); ++n) {
-        absl::StrAppend(&params, n == 1 ? "" : ", ", Param(p, n));
-    }
+std::string RollupUpsertSql(const std::string& table, char p, int rows) {
     return absl::StrCat("INSERT INTO ", table, " (granularity_us, dimension, bucket_us, key, ",
-                        ValueList(""), ") VALUES (", params,
-                        ") ON CONFLICT (granularity_us, dimension, bucket_us, key) DO UPDATE SET ",
+                        ValueList(""), ") VALUES ", ParamRows(p, rows),
+                        " ON CONFLICT (granularity_us, dimension, bucket_us, key) DO UPDATE SET ",
                         AddedValues(table));
+}
+
+void AddCellValues(const ProductionCell& from, ProductionCell& into) {
+    into.passes += from.passes;
+    into.loads += from.loads;
+    into.volume_m3 += from.volume_m3;
+    into.bank_volume_m3 += from.bank_volume_m3;
+    into.mass_kg += from.mass_kg;
+    into.mass_passes += from.mass_passes;
+    into.fill_ratio_sum += from.fill_ratio_sum;
+    for (int s = 0; s < ProductionCell::kStatuses; ++s) into.statuses[s] += from.statuses[s];
+}
+
+ProductionBatch SumBatch(const std::vector<ProductionCell>& cells) {
+    std::map<std::tuple<std::int64_t, std::string, std::string, std::string>, ProductionCell> fine;
+    std::map<std::tuple<std::int64_t, int, std::int64_t, std::string>,
+             std::pair<RollupKey, ProductionCell>>
+        rollup;
+    for (const ProductionCell& cell : cells) {
+        ProductionCell& f =
+            fine[{cell.bucket_us, cell.container_id, cell.haul_unit_id, cell.material}];
+        if (f.passes == 0 && f.mass_passes == 0) {
+            f.bucket_us = cell.bucket_us;
+            f.container_id = cell.container_id;
+            f.haul_unit_id = cell.haul_unit_id;
+            f.material = cell.material;
+        }
+        AddCellValues(cell, f);
+        for (RollupKey& key : RollupKeysOf(cell)) {
+            auto& [at, sum] = rollup[{key.granularity_us, key.dimension, key.bucket_us, key.key}];
+            at = std::move(key);
+            AddCellValues(cell, sum);
+        }
+    }
+    ProductionBatch out;
+    for (auto& [key, cell] : fine) out.fine.push_back(std::move(cell));
+    for (auto& [key, entry] : rollup) out.rollup.push_back(std::move(entry));
+    return out;
 }
 
 std::string RollupSelectSql(const std::string& table, char p) {

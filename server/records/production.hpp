@@ -72,12 +72,24 @@ std::vector<RollupKey> RollupKeysOf(const ProductionCell& fine);
 /// A rollup row's key into the field of its dimension.
 void SetCellKey(int dimension, std::string key, ProductionCell& cell);
 
+/// `from`'s values added to `into`'s (its keys stay).
+void AddCellValues(const ProductionCell& from, ProductionCell& into);
+
+/// What a batch of kept records adds: its fine cells summed by their keys, and the rollup's
+/// rows they add to summed by theirs (one row each: a statement may touch a row once).
+struct ProductionBatch {
+    std::vector<ProductionCell> fine;
+    std::vector<std::pair<RollupKey, ProductionCell>> rollup;
+};
+ProductionBatch SumBatch(const std::vector<ProductionCell>& cells);
+
 /// The SQL of both stores: `p` the parameter mark ('?' SQLite, '$' PostgreSQL).
-/// Adds a cell to the fine table (parameters 1-18: bucket, container, haul unit, material,
-/// passes, loads, volume, bank volume, mass, mass passes, fill sum, statuses 0-6).
-std::string ProductionUpsertSql(const std::string& table, char p);
-/// Adds to the rollup (parameters 1-18: granularity, dimension, bucket, key, then the values).
-std::string RollupUpsertSql(const std::string& table, char p);
+/// Adds `rows` cells to the fine table (18 parameters a row: bucket, container, haul unit,
+/// material, passes, loads, volume, bank volume, mass, mass passes, fill sum, statuses 0-6).
+std::string ProductionUpsertSql(const std::string& table, char p, int rows = 1);
+/// Adds `rows` rows to the rollup (18 parameters a row: granularity, dimension, bucket, key,
+/// then the values).
+std::string RollupUpsertSql(const std::string& table, char p, int rows = 1);
 /// The rollup's rows of one granularity and dimension with buckets in [param 3, param 4):
 /// bucket_us, key, the values.
 std::string RollupSelectSql(const std::string& table, char p);
