@@ -1,7 +1,5 @@
 #include "client/load_printer.hpp"
 
-#include <google/protobuf/util/time_util.h>
-
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "client/response_printer.hpp"
@@ -9,11 +7,6 @@
 
 namespace soilvol::client {
 namespace {
-
-std::string Time(const google::protobuf::Timestamp& time) {
-    if (time.seconds() == 0 && time.nanos() == 0) return "-";
-    return google::protobuf::util::TimeUtil::ToString(time);
-}
 
 std::string State(const v1::Load& load) {
     const std::string state = EnumLabel(v1::LoadState_Name(load.state()), "LOAD_STATE_");
@@ -58,8 +51,8 @@ void PrintLoad(const v1::Load& load, bool json, std::ostream& out) {
                  {"status", Status(load)},
                  {"mean cycle", absl::StrFormat("%.1f s", load.mean_cycle_seconds())},
                  {"body scan", Reconciled(load)},
-                 {"created", Time(load.create_time())},
-                 {"closed", Time(load.close_time())},
+                 {"created", TimeText(load.create_time())},
+                 {"closed", TimeText(load.close_time())},
                  {"etag", load.etag()}},
                 out);
     if (load.passes_size() == 0) return;
@@ -68,7 +61,7 @@ void PrintLoad(const v1::Load& load, bool json, std::ostream& out) {
     for (const v1::LoadPass& pass : load.passes()) {
         passes.AddRow({absl::StrCat(++n), pass.container_id(), pass.estimate_id(),
                        Fixed(pass.volume_m3(), 4), Fixed(1000.0 * pass.uncertainty_m3(), 1),
-                       Time(pass.create_time())});
+                       TimeText(pass.create_time())});
     }
     passes.Print(out);
 }
@@ -84,7 +77,7 @@ void PrintLoadList(const v1::ListLoadsResponse& list, bool json, std::ostream& o
         table.AddRow({load.load_id(), load.haul_unit_id(), State(load),
                       absl::StrCat(load.pass_count()), Fixed(load.volume_m3(), 3),
                       Fixed(1000.0 * load.uncertainty_m3(), 1), Status(load), body,
-                      Time(load.create_time())});
+                      TimeText(load.create_time())});
     }
     table.Print(out);
 }

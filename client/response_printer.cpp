@@ -13,11 +13,6 @@
 namespace soilvol::client {
 namespace {
 
-std::string Time(const google::protobuf::Timestamp& time) {
-    if (time.seconds() == 0 && time.nanos() == 0) return "-";
-    return google::protobuf::util::TimeUtil::ToString(time);
-}
-
 std::string Source(v1::CalibrationSource source) {
     return EnumLabel(v1::CalibrationSource_Name(source), "CALIBRATION_SOURCE_");
 }
@@ -69,6 +64,11 @@ std::string PoseText(const v1::Pose& pose) {
 
 }  // namespace
 
+std::string TimeText(const google::protobuf::Timestamp& time) {
+    if (time.seconds() == 0 && time.nanos() == 0) return "-";
+    return google::protobuf::util::TimeUtil::ToString(time);
+}
+
 std::string EnumLabel(const std::string& name, const std::string& prefix) {
     std::string label = absl::StartsWith(name, prefix) ? name.substr(prefix.size()) : name;
     return label.empty() ? "-" : absl::AsciiStrToLower(label);
@@ -98,7 +98,7 @@ void PrintCalibration(const v1::Calibration& c, bool json, std::ostream& out,
         fields.push_back({"pairs used", absl::StrCat(c.pairs_used())});
         fields.push_back({"pairs skipped", absl::StrCat(c.skipped_pairs_size())});
     }
-    fields.push_back({"created", Time(c.create_time())});
+    fields.push_back({"created", TimeText(c.create_time())});
     PrintFields(fields, out);
     for (const v1::SkippedPair& skipped : c.skipped_pairs()) {
         const auto index = static_cast<size_t>(skipped.index());
@@ -142,7 +142,7 @@ void PrintContainer(const v1::Container& c, bool json, std::ostream& out) {
                  {"scan points", absl::StrCat(c.scan_points())},
                  {"alignment points", absl::StrCat(c.alignment_points())},
                  {"max range [m]", c.has_max_range_m() ? Fixed(c.max_range_m(), 2) : "none"},
-                 {"created", Time(c.create_time())}},
+                 {"created", TimeText(c.create_time())}},
                 out);
     PrintWarnings(c, false, out);
 }
@@ -229,7 +229,7 @@ void PrintCalibrationList(const v1::ListCalibrationsResponse& list, bool json, s
                       absl::StrCat(c.image_width(), "x", c.image_height()),
                       Fixed(c.baseline_m(), 4), Fixed(c.focal_length_px(), 1),
                       board ? Fixed(c.rms_reprojection_error_px(), 3) : "-",
-                      board ? absl::StrCat(c.pairs_used()) : "-", Time(c.create_time())});
+                      board ? absl::StrCat(c.pairs_used()) : "-", TimeText(c.create_time())});
     }
     table.Print(out);
     PrintUnreadable(list.unreadable(), out);
@@ -245,7 +245,7 @@ void PrintContainerList(const v1::ListContainersResponse& list, bool json, std::
                       Fixed(c.heaped_capacity_m3(), 4), Fixed(c.opening_area_m2(), 3),
                       Fixed(c.depth_m(), 3), absl::StrCat(c.scan_points()),
                       c.calibration_id().empty() ? "-" : c.calibration_id(),
-                      absl::StrCat(c.warnings_size()), Time(c.create_time())});
+                      absl::StrCat(c.warnings_size()), TimeText(c.create_time())});
     }
     table.Print(out);
     for (const v1::Container& c : list.containers()) PrintWarnings(c, true, out);
@@ -258,7 +258,7 @@ std::vector<std::string> EstimateCells(const v1::Estimate& e) {
     const v1::EstimateVolumeResponse& r = e.result();
     return {e.estimate_id(),
             e.container_id(),
-            Time(e.create_time()),
+            TimeText(e.create_time()),
             Fixed(r.volume_m3(), 4),
             Fixed(1000.0 * r.uncertainty_m3(), 1),
             r.has_mass_kg() ? Fixed(r.mass_kg(), 0) : "-",
@@ -285,7 +285,8 @@ void PrintEstimateList(const std::vector<v1::Estimate>& estimates, bool json, st
 void PrintEstimateRecord(const v1::Estimate& estimate, bool json, std::ostream& out) {
     if (json) return PrintJson(estimate, out);
     PrintFields(
-        {{"estimate id", estimate.estimate_id()}, {"recorded", Time(estimate.create_time())}}, out);
+        {{"estimate id", estimate.estimate_id()}, {"recorded", TimeText(estimate.create_time())}},
+        out);
     PrintEstimate(estimate.result(), false, out);
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <google/protobuf/message.h>
+#include <google/protobuf/timestamp.pb.h>
 
 #include <ostream>
 #include <string>
@@ -26,6 +27,9 @@ void PrintEstimateList(const std::vector<v1::Estimate>& estimates, bool json, st
 void PrintEstimateRecord(const v1::Estimate& estimate, bool json, std::ostream& out);
 /// One line per record as a watch receives it (JSON: one object per line).
 void PrintEstimateLine(const v1::Estimate& estimate, bool json, std::ostream& out);
+
+/// RFC 3339 of `time`, "-" when unset.
+std::string TimeText(const google::protobuf::Timestamp& time);
 
 /// "CALIBRATION_SOURCE_CHESSBOARD" -> "chessboard": the enum value name without `prefix`.
 std::string EnumLabel(const std::string& name, const std::string& prefix);

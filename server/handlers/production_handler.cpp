@@ -83,15 +83,16 @@ void ToProto(const ProductionRow& row, const Period& period, v1::ProductionRow* 
     *out->mutable_end_time() = TimeUtil::MicrosecondsToTimestamp(period.end_us);
     out->set_period(period.label);
     out->set_group(row.group);
-    out->set_loads(row.loads);
-    out->set_passes(row.passes);
-    out->set_volume_m3(row.volume_m3);
-    out->set_bank_volume_m3(row.bank_volume_m3);
-    out->set_mass_kg(row.mass_kg);
-    out->set_mass_passes(row.mass_passes);
-    out->set_mean_fill_ratio(row.passes > 0 ? row.fill_ratio_sum / row.passes : 0.0);
+    const ProductionCell& t = row.totals;
+    out->set_loads(t.loads);
+    out->set_passes(t.passes);
+    out->set_volume_m3(t.volume_m3);
+    out->set_bank_volume_m3(t.bank_volume_m3);
+    out->set_mass_kg(t.mass_kg);
+    out->set_mass_passes(t.mass_passes);
+    out->set_mean_fill_ratio(t.passes > 0 ? t.fill_ratio_sum / t.passes : 0.0);
     for (int s = 1; s < ProductionCell::kStatuses; ++s) {
-        if (row.statuses[s] > 0) (*out->mutable_status_counts())[StatusKey(s)] = row.statuses[s];
+        if (t.statuses[s] > 0) (*out->mutable_status_counts())[StatusKey(s)] = t.statuses[s];
     }
 }
 

@@ -130,10 +130,6 @@ std::string ValueList(const char* wrap) {
     return list;
 }
 
-}  // namespace
-
-namespace {
-
 /// "(p1, ..., p18), (p19, ...)": `rows` rows of a cell's 18 parameters.
 std::string ParamRows(char p, int rows) {
     constexpr int kPerRow = 4 + static_cast<int>(std::size(kValueColumns));
@@ -148,22 +144,21 @@ std::string ParamRows(char p, int rows) {
     return out;
 }
 
-}  // namespace
-
-std::string ProductionUpsertSql(const std::string& table, char p, int rows) {
-    return absl::StrCat("INSERT INTO ", table,
-                        " (bucket_us, container_id, haul_unit_id, material, ", ValueList(""),
-                        ") VALUES ", ParamRows(p, rows),
-                        " ON CONFLICT (bucket_us, container_id, haul_unit_id, material) DO "
-                        "UPDATE SET ",
+/// Adds `rows` rows keyed by `keys` (comma-separated, the table's primary key) to `table`.
+std::string UpsertSql(const std::string& table, const char* keys, char p, int rows) {
+    return absl::StrCat("INSERT INTO ", table, " (", keys, ", ", ValueList(""), ") VALUES ",
+                        ParamRows(p, rows), " ON CONFLICT (", keys, ") DO UPDATE SET ",
                         AddedValues(table));
 }
 
+}  // namespace
+
+std::string ProductionUpsertSql(const std::string& table, char p, int rows) {
+    return UpsertSql(table, "bucket_us, container_id, haul_unit_id, material", p, rows);
+}
+
 std::string RollupUpsertSql(const std::string& table, char p, int rows) {
-    return absl::StrCat("INSERT INTO ", table, " (granularity_us, dimension, bucket_us, key, ",
-                        ValueList(""), ") VALUES ", ParamRows(p, rows),
-                        " ON CONFLICT (granularity_us, dimension, bucket_us, key) DO UPDATE SET ",
-                        AddedValues(table));
+    return UpsertSql(table, "granularity_us, dimension, bucket_us, key", p, rows);
 }
 
 void AddCellValues(const ProductionCell& from, ProductionCell& into) {
@@ -351,14 +346,7 @@ std::vector<ProductionRow> SumProduction(
         ProductionRow& row = rows[{index, group}];
         row.period = index;
         row.group = std::move(group);
-        row.passes += cell.passes;
-        row.loads += cell.loads;
-        row.mass_passes += cell.mass_passes;
-        row.volume_m3 += cell.volume_m3;
-        row.bank_volume_m3 += cell.bank_volume_m3;
-        row.mass_kg += cell.mass_kg;
-        row.fill_ratio_sum += cell.fill_ratio_sum;
-        for (int s = 0; s < ProductionCell::kStatuses; ++s) row.statuses[s] += cell.statuses[s];
+        AddCellValues(cell, row.totals);
     }
     std::vector<ProductionRow> out;
     out.reserve(rows.size());

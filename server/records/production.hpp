@@ -138,9 +138,7 @@ std::int64_t RollupGranularityFor(const std::vector<Period>& periods);
 struct ProductionRow {
     std::size_t period = 0;  ///< index into the periods
     std::string group;       ///< "" when not grouped
-    std::int64_t passes = 0, loads = 0, mass_passes = 0;
-    double volume_m3 = 0.0, bank_volume_m3 = 0.0, mass_kg = 0.0, fill_ratio_sum = 0.0;
-    std::array<std::int64_t, ProductionCell::kStatuses> statuses{};
+    ProductionCell totals;   ///< the values summed (AddCellValues); its keys unused
 };
 
 /// `cells` summed by period and by the group `group_of` names each cell (a cell no period

@@ -133,13 +133,13 @@ TEST(Production, CellsSumIntoTheirPeriodAndGroup) {
         SumProduction(cells, *shifts, [](const ProductionCell& c) { return c.container_id; });
     ASSERT_EQ(rows.size(), 3u);
     EXPECT_EQ(rows[0].group, "a");
-    EXPECT_EQ(rows[0].volume_m3, 1.0);
+    EXPECT_EQ(rows[0].totals.volume_m3, 1.0);
     EXPECT_EQ(rows[1].group, "b");
-    EXPECT_EQ(rows[1].statuses[5], 1);
+    EXPECT_EQ(rows[1].totals.statuses[5], 1);
     EXPECT_EQ(rows[2].period, 1u);
-    EXPECT_EQ(rows[2].volume_m3, 12.0);
-    EXPECT_EQ(rows[2].passes, 2);
-    EXPECT_EQ(rows[2].statuses[3], 1);
+    EXPECT_EQ(rows[2].totals.volume_m3, 12.0);
+    EXPECT_EQ(rows[2].totals.passes, 2);
+    EXPECT_EQ(rows[2].totals.statuses[3], 1);
 }
 
 }  // namespace
