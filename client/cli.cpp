@@ -48,6 +48,7 @@ int RunCli(int argc, const char* const* argv) {
     AddResourceCommands(app, global, &exit_code);
     AddEstimatesCommand(app, global, &exit_code);
     AddLoadsCommand(app, global, &exit_code);
+    AddAlertsCommands(app, global, &exit_code);
     AddHealthCommand(app, global, &exit_code);
     AddDemoCommand(app, global, &exit_code);
     AddShiftDemoCommand(app, global, &exit_code);

@@ -13,6 +13,7 @@ void AddRegisterCommand(CLI::App& app, const GlobalOptions& global, int* exit_co
 void AddEstimateCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddEstimatesCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddLoadsCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
+void AddAlertsCommands(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddResourceCommands(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddHealthCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);
 void AddDemoCommand(CLI::App& app, const GlobalOptions& global, int* exit_code);

@@ -11,7 +11,7 @@ build_dir="${SOILVOL_ASAN_BUILD_DIR:-build-asan}"
 seconds="${SOILVOL_FUZZ_SECONDS:-20}"
 targets=(fuzz_cloud_decoder fuzz_mesh_decoder fuzz_image_header fuzz_depth_scan fuzz_model_codec
     fuzz_http_binding fuzz_calibration_record fuzz_token_file fuzz_multipart fuzz_resource_rules
-    fuzz_process_stats fuzz_production)
+    fuzz_process_stats fuzz_production fuzz_webhook_url fuzz_alert_config)
 scripts/sanitized-build.sh "${targets[@]}" fuzz_make_seeds
 corpus="$build_dir/fuzz-corpus"
 rm -rf "$corpus"

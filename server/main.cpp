@@ -87,6 +87,22 @@ void AddEngineFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
                    "An open truck load that got no pass for this long is closed (0 = never)")
         ->envname("SOILVOL_LOAD_IDLE_SECONDS")
         ->capture_default_str();
+    app.add_option("--alert-rules", o.alert_rules,
+                   "alerts of containers without their own rules, and of loads: JSON of "
+                   "soilvol.v1.AlertRules ('{}': none)")
+        ->envname("SOILVOL_ALERT_RULES")
+        ->capture_default_str();
+    app.add_option("--webhooks-file", o.webhooks_file,
+                   "JSON {\"webhooks\": [soilvol.v1.Webhook...]}: where alerts are posted")
+        ->envname("SOILVOL_WEBHOOKS_FILE");
+    app.add_option("--webhook-max-age-hours", o.webhook_max_age_hours,
+                   "an alert a webhook could not take for this long is abandoned, (0, 720]")
+        ->envname("SOILVOL_WEBHOOK_MAX_AGE_HOURS")
+        ->capture_default_str();
+    app.add_option("--webhook-ca-file", o.webhook_ca_file,
+                   "PEM certificates to verify webhooks' https servers with (default: the "
+                   "system's)")
+        ->envname("SOILVOL_WEBHOOK_CA_FILE");
     app.add_option("--site-time-zone", o.site_time_zone,
                    "IANA time zone of production's hours, shifts and days (Europe/Berlin)")
         ->envname("SOILVOL_SITE_TIME_ZONE")

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "server/dispatch/cpu_budget.hpp"
+#include "server/handlers/alert_rules.hpp"
 #include "server/records/production.hpp"
 
 namespace soilvol::server {
@@ -83,6 +84,12 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (absl::Status starts = ParseShiftStarts(o.shift_starts, "shift-starts").status();
         !starts.ok()) {
         return Invalid("shift-starts", std::string(starts.message().substr(14)));
+    }
+    if (absl::Status rules = ParseAlertRules(o.alert_rules).status(); !rules.ok()) {
+        return absl::InvalidArgumentError(rules.message());
+    }
+    if (!(o.webhook_max_age_hours > 0.0 && o.webhook_max_age_hours <= 720.0)) {
+        return Invalid("webhook-max-age-hours", "must be in (0, 720]");
     }
     return absl::OkStatus();
 }

@@ -49,6 +49,16 @@ struct ServerOptions {
     /// Production's default IANA zone and local shift starts.
     std::string site_time_zone = "UTC";
     std::vector<std::string> shift_starts = {"06:00", "18:00"};
+    /// The alerts of containers without their own rules and of loads: JSON of
+    /// soilvol.v1.AlertRules.
+    std::string alert_rules = R"({"overloadMinProbability":0.5,"carrybackMinProbability":0.5,)"
+                              R"("refusedScansInARow":3,"loadOffTarget":true})";
+    /// Where alerts are posted: JSON {"webhooks": [soilvol.v1.Webhook...]}; "" = nowhere.
+    std::string webhooks_file;
+    /// An alert a webhook could not take for this long is abandoned (logged), (0, 720].
+    double webhook_max_age_hours = 72.0;
+    /// PEM certificates webhooks' https servers are verified with; "" = the system's.
+    std::string webhook_ca_file;
 
     // Security: TLS (both transports), credentials, what is open.
     std::string tls_cert;          ///< PEM certificate chain; set with tls_key: TLS on both ports

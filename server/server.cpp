@@ -1,9 +1,12 @@
 #include "server/server.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <condition_variable>
 #include <mutex>
+#include <random>
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
@@ -13,21 +16,26 @@
 #include "grpcpp/security/server_credentials.h"
 #include "grpcpp/security/tls_certificate_provider.h"
 #include "grpcpp/security/tls_credentials_options.h"
+#include "proto/convert/proto_convert.hpp"
 #include "server/auth/authenticator.hpp"
 #include "server/base/logging.hpp"
+#include "server/base/periodic_task.hpp"
 #include "server/dispatch/cpu_budget.hpp"
 #include "server/dispatch/dispatcher.hpp"
 #include "server/dispatch/metrics.hpp"
 #include "server/dispatch/worker_pool.hpp"
 #include "server/grpc/grpc_service.hpp"
 #include "server/grpc/health_service.hpp"
+#include "server/handlers/alert_rules.hpp"
 #include "server/handlers/mesh_request.hpp"
 #include "server/handlers/rpc_table.hpp"
 #include "server/handlers/soilvol_handlers.hpp"
 #include "server/http/http_gateway.hpp"
-#include "server/records/estimate_feed.hpp"
+#include "server/records/record_feed.hpp"
 #include "server/records/recorder.hpp"
 #include "server/store/entry_store.hpp"
+#include "server/webhooks/webhook_config.hpp"
+#include "server/webhooks/webhook_dispatcher.hpp"
 
 namespace soilvol::server {
 
@@ -41,10 +49,14 @@ struct ServerParts {
     std::unique_ptr<RecordStore> records;
     std::unique_ptr<EstimateRecorder> recorder;  // after records: stops before it closes
     std::unique_ptr<EstimateFeed> feed;          // after the recorder it waits on
+    std::unique_ptr<AlertFeed> alert_feed;
+    std::vector<WebhookTarget> webhooks;
     Metrics metrics;
     std::unique_ptr<WorkerPool> pool;
     std::unique_ptr<Dispatcher> dispatcher;
     std::unique_ptr<SoilVolumeHandlers> handlers;
+    std::unique_ptr<PeriodicTask> load_judge;  // after the handlers it calls
+    std::unique_ptr<WebhookDispatcher> webhook_dispatcher;
     std::map<std::string, Rpc> rpcs;  // what both transports serve
     std::unique_ptr<SoilVolumeService> service;
     std::unique_ptr<HealthService> health;
@@ -119,6 +131,13 @@ class WithoutReflection final : public grpc::ServerBuilderOption {
     }
 };
 
+/// Names this process in webhook leases: host, process id and a random part.
+std::string LeaseHolderName() {
+    char host[256] = {};
+    gethostname(host, sizeof(host) - 1);
+    return absl::StrCat(host, "/", getpid(), "/", std::random_device{}());
+}
+
 MetricsAccess MetricsAccessOf(const std::string& value) {
     if (value == "off") return MetricsAccess::kOff;
     if (value == "auth") return MetricsAccess::kAuthenticated;
@@ -165,7 +184,12 @@ absl::Status OpenEngine(ServerParts& p) {
 /// The records database, its recorder and the feed that watches read (none: --records-url none).
 absl::Status OpenRecords(ServerParts& p) {
     const ServerOptions& o = p.options;
-    if (o.records_url == "none") return absl::OkStatus();
+    if (o.records_url == "none") {
+        if (o.webhooks_file.empty()) return absl::OkStatus();
+        return absl::InvalidArgumentError(
+            "--webhooks-file: webhooks post the alerts kept with the records: not with "
+            "--records-url none");
+    }
     SOILVOL_ASSIGN_OR_RETURN(p.records, OpenRecordStore(o.records_url, o.data_dir));
     EstimateRecorder::Config recording;
     recording.retention.max_per_container = o.records_max_per_container;
@@ -175,7 +199,11 @@ absl::Status OpenRecords(ServerParts& p) {
     EstimateFeed::Config feed;
     feed.max_watches = static_cast<std::size_t>(o.max_watches);
     feed.heartbeat = std::chrono::milliseconds(std::lround(o.watch_heartbeat_s * 1000.0));
-    p.feed = std::make_unique<EstimateFeed>(*p.recorder, feed);
+    p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateSource(*p.records), feed);
+    p.alert_feed = std::make_unique<AlertFeed>(*p.recorder, AlertSource(*p.records), feed);
+    if (!o.webhooks_file.empty()) {
+        SOILVOL_ASSIGN_OR_RETURN(p.webhooks, LoadWebhooks(o.webhooks_file));
+    }
     p.metrics.SetRecordsProbe(
         p.records->kind(), [recorder = p.recorder.get(), feed = p.feed.get()] {
             const EstimateRecorder::Stats stats = recorder->stats();
@@ -197,8 +225,10 @@ absl::Status MakeServices(ServerParts& p, const google::protobuf::ServiceDescrip
     handling.load_idle_us = static_cast<std::int64_t>(p.options.load_idle_s * 1e6);
     handling.site_time_zone = p.options.site_time_zone;
     handling.shift_starts = p.options.shift_starts;
-    p.handlers =
-        std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get(), handling);
+    SOILVOL_ASSIGN_OR_RETURN(handling.alert_rules, ParseAlertRules(p.options.alert_rules));
+    for (const WebhookTarget& target : p.webhooks) handling.webhooks.push_back(target.config);
+    p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get(),
+                                                      p.alert_feed.get(), std::move(handling));
     p.rpcs = MakeRpcTable(*p.handlers);
     SOILVOL_RETURN_IF_ERROR(CheckRpcTable(p.rpcs, api));
     SoilVolumeHandlers* handlers = p.handlers.get();
@@ -249,6 +279,26 @@ absl::Status MakeGateway(ServerParts& p, const google::protobuf::ServiceDescript
     return absl::OkStatus();
 }
 
+/// What runs beside the calls: the judge of closed loads (every second) and the webhooks.
+void StartBackground(ServerParts& p) {
+    if (p.recorder == nullptr) return;
+    SoilVolumeHandlers* handlers = p.handlers.get();
+    p.load_judge = std::make_unique<PeriodicTask>(std::chrono::seconds(1), [handlers] {
+        const absl::StatusOr<int> judged = handlers->JudgeLoads(NowMicros());
+        if (!judged.ok()) {
+            LogEvent(LogLevel::kWarn, "judging closed loads failed",
+                     {{"error", judged.status().message()}});
+        }
+    });
+    if (p.webhooks.empty()) return;
+    WebhookDispatcher::Config config;
+    config.max_age = std::chrono::seconds(std::lround(p.options.webhook_max_age_hours * 3600.0));
+    config.post.ca_file = p.options.webhook_ca_file;
+    config.holder = LeaseHolderName();
+    p.webhook_dispatcher =
+        std::make_unique<WebhookDispatcher>(*p.recorder, p.webhooks, std::move(config));
+}
+
 /// Binds and starts gRPC, then REST; Unavailable naming the flag of an address not bound.
 absl::Status StartListening(ServerParts& p) {
     const ServerOptions& o = p.options;
@@ -290,6 +340,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::BuildAndStart(const ServerOption
     SOILVOL_RETURN_IF_ERROR(MakeServices(*parts, *api));
     SOILVOL_RETURN_IF_ERROR(MakeGateway(*parts, *api));
     SOILVOL_RETURN_IF_ERROR(StartListening(*parts));
+    StartBackground(*parts);
     return std::unique_ptr<Server>(new Server(std::move(parts)));
 }
 
@@ -328,6 +379,9 @@ void Server::Shutdown() {
     // Watches never end by themselves: end them (UNAVAILABLE; clients resume elsewhere) so
     // that the transports need not wait for them.
     if (p.feed != nullptr) p.feed->Shutdown();
+    if (p.alert_feed != nullptr) p.alert_feed->Shutdown();
+    p.load_judge.reset();
+    if (p.webhook_dispatcher != nullptr) p.webhook_dispatcher->Shutdown();
     p.grpc_server->Shutdown(wall_deadline);
     const auto left = std::max(Clock::duration::zero(), deadline - Clock::now());
     Dispatcher* dispatcher = p.dispatcher.get();

@@ -380,6 +380,10 @@ google::protobuf::Timestamp NowTimestamp() {
     return google::protobuf::util::TimeUtil::MicrosecondsToTimestamp(micros);
 }
 
+std::int64_t NowMicros() {
+    return google::protobuf::util::TimeUtil::TimestampToMicroseconds(NowTimestamp());
+}
+
 absl::StatusOr<std::string> HeightmapPng(const v1::EstimateVolumeResponse& estimate, int cell_px) {
     const v1::Heightmap& map = estimate.heightmap();
     if (map.cols() == 0 || map.rows() == 0) {

@@ -46,6 +46,8 @@ absl::StatusOr<LoadRules> ToLoadRules(const v1::Material& material, const v1::Lo
 /// The time now to the microsecond (Debian's protobuf TimeUtil::GetCurrentTime() has whole
 /// seconds only, which orders nothing within a second).
 google::protobuf::Timestamp NowTimestamp();
+/// NowTimestamp in microseconds since the epoch.
+std::int64_t NowMicros();
 /// Microseconds since the epoch of a request's time, refusing one outside RFC 3339's years
 /// 1..9999 or with nanos out of range (InvalidArgument naming `field`).
 absl::StatusOr<std::int64_t> TimestampMicros(const google::protobuf::Timestamp& time,

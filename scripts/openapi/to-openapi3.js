@@ -18,7 +18,12 @@ const UPLOADS = {
     RegisterContainer: ["cloud", "left", "right", "depth", "confidence", "mesh"],
     EstimateVolume: ["cloud", "left", "right", "depth", "confidence"],
 };
-const WATCH = "WatchEstimates";
+// Server-streaming RPCs served as Server-Sent Events: their event name, id field and resume field.
+const WATCHES = {
+    WatchEstimates: {event: "estimate", id: "estimateId", resume: "afterEstimateId",
+                     schema: "v1Estimate"},
+    WatchAlerts: {event: "alert", id: "alertId", resume: "afterAlertId", schema: "v1Alert"},
+};
 
 function camel(name) {
     return name.replace(/_([a-z0-9])/g, (_, c) => c.toUpperCase());
@@ -119,17 +124,17 @@ function addUploads(doc, op, route) {
         "proto3 JSON) or multipart/form-data (server/README.md, Binary uploads).";
 }
 
-function documentWatch(op) {
+function documentWatch(op, watch) {
     const ok = op.responses["200"];
-    ok.description = "Server-Sent Events: `retry: 1000`, then per new record `id: <estimateId>`, " +
-        "`event: estimate`, `data: <the Estimate as JSON (v1Estimate)>`; comment lines keep the " +
-        "connection alive; a failure ends the stream with `event: error`, `data: <a " +
-        "google.rpc.Status as JSON>`.";
+    ok.description = `Server-Sent Events: \`retry: 1000\`, then per new message \`id: <${watch.id}>\`, ` +
+        `\`event: ${watch.event}\`, \`data: <the message as JSON (${watch.schema})>\`; comment ` +
+        "lines keep the connection alive; a failure ends the stream with `event: error`, " +
+        "`data: <a google.rpc.Status as JSON>`.";
     ok.content = {"text/event-stream": {schema: {type: "string"}}};
     op.parameters = op.parameters || [];
     op.parameters.push({
         name: "Last-Event-ID", in: "header", required: false,
-        description: "An EventSource's reconnect: resume after this id (as afterEstimateId).",
+        description: `An EventSource's reconnect: resume after this id (as ${watch.resume}).`,
         schema: {type: "string"},
     });
 }
@@ -162,7 +167,7 @@ function main() {
                 [{$ref: "#/components/parameters/RequestId"},
                  {$ref: "#/components/parameters/GrpcTimeout"}]);
             if (UPLOADS[op.operationId]) addUploads(doc, op, route);
-            if (op.operationId === WATCH) documentWatch(op);
+            if (WATCHES[op.operationId]) documentWatch(op, WATCHES[op.operationId]);
             if (op.operationId === "UpdateContainer") {  // protoc-gen-swagger 1.6 drops messages
                 op.parameters.push({
                     name: "updateMask", in: "query", required: false,

@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 20> kMethodScopes = {{
+constexpr std::array<MethodScope, 24> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -44,6 +44,11 @@ constexpr std::array<MethodScope, 20> kMethodScopes = {{
     {"GetLoad", Scope::kRead},
     {"ListLoads", Scope::kRead},
     {"GetProduction", Scope::kRead},
+    {"ListAlerts", Scope::kRead},
+    {"WatchAlerts", Scope::kRead},
+    // A webhook's URL may carry the receiver's credentials in its query.
+    {"ListWebhooks", Scope::kAdmin},
+    {"ListWebhookDeliveries", Scope::kAdmin},
 }};
 
 // "Bearer <token>" (the scheme in any case, RFC 7235); "" when the header is something else.

@@ -68,18 +68,23 @@ class EstimateStream final
     int64_t sequence_ = 0;
 };
 
-/// WatchEstimates: records from the feed are queued (at most kMaxQueued; beyond, the watch
-/// ends as too slow) and written one at a time. The shared State outlives the reactor, so a
-/// record the feed hands over while the call ends finds no reactor rather than a dangling one.
-class WatchStream final : public grpc::ServerWriteReactor<v1::Estimate> {
+/// WatchEstimates and WatchAlerts: what the feed delivers is queued (at most kMaxQueued;
+/// beyond, the watch ends as too slow) and written one at a time. The shared State outlives the
+/// reactor, so a message the feed hands over while the call ends finds no reactor rather than a
+/// dangling one.
+template <typename Message>
+class WatchStream final : public grpc::ServerWriteReactor<Message> {
   public:
     static constexpr std::size_t kMaxQueued = 256;
+    /// Starts the handler's watch with these callbacks; returns what stops it.
+    using Start = std::function<absl::StatusOr<std::function<void()>>(
+        std::function<bool(const Message*)>, std::function<void(const absl::Status&)>)>;
 
-    WatchStream(grpc::CallbackServerContext* context, SoilVolumeHandlers& handlers,
-                Dispatcher& dispatcher, const v1::WatchEstimatesRequest& request)
+    WatchStream(grpc::CallbackServerContext* context, Dispatcher& dispatcher, const char* method,
+                const Start& start)
         : state_(std::make_shared<State>()) {
         state_->reactor = this;
-        CallContext call = GrpcCallContext(context, "WatchEstimates");
+        CallContext call = GrpcCallContext(context, method);
         context->AddInitialMetadata("x-request-id", call.request_id);
         if (absl::Status allowed = dispatcher.Authorize(call); !allowed.ok()) {
             dispatcher.Refuse(call, allowed);
@@ -87,16 +92,16 @@ class WatchStream final : public grpc::ServerWriteReactor<v1::Estimate> {
             return;
         }
         std::shared_ptr<State> state = state_;
-        absl::StatusOr<std::function<void()>> stop = handlers.WatchEstimates(
-            request, [state](const v1::Estimate* estimate) { return state->Push(estimate); },
-            [state](const absl::Status& status) { state->End(ToGrpcStatus(status)); });
+        absl::StatusOr<std::function<void()>> stop =
+            start([state](const Message* message) { return state->Push(message); },
+                  [state](const absl::Status& status) { state->End(ToGrpcStatus(status)); });
         if (!stop.ok()) {
             dispatcher.Refuse(call, stop.status());
             FinishOnce(ToGrpcStatus(stop.status()));
             return;
         }
         stop_ = *std::move(stop);
-        StartSendInitialMetadata();  // the client sees the watch is on before any record
+        this->StartSendInitialMetadata();  // the client sees the watch is on before any message
     }
 
     void OnWriteDone(bool ok) override {
@@ -108,7 +113,7 @@ class WatchStream final : public grpc::ServerWriteReactor<v1::Estimate> {
             return;
         }
         if (!state_->queue.empty()) {
-            StartWrite(&state_->queue.front());
+            this->StartWrite(&state_->queue.front());
             return;
         }
         state_->writing = false;
@@ -130,17 +135,17 @@ class WatchStream final : public grpc::ServerWriteReactor<v1::Estimate> {
     struct State {
         std::recursive_mutex mutex;  // gRPC may run a reaction inline
         WatchStream* reactor = nullptr;
-        std::deque<v1::Estimate> queue;  // front: being written
+        std::deque<Message> queue;  // front: being written
         bool writing = false;
         bool finished = false;
         std::optional<grpc::Status> pending_finish;
 
-        bool Push(const v1::Estimate* estimate) {
+        bool Push(const Message* message) {
             std::lock_guard<std::recursive_mutex> lock(mutex);
             if (reactor == nullptr || finished) return false;
-            if (estimate == nullptr) return true;  // heartbeat: gRPC keepalive covers it
+            if (message == nullptr) return true;  // heartbeat: gRPC keepalive covers it
             if (queue.size() >= kMaxQueued) return false;
-            queue.push_back(*estimate);
+            queue.push_back(*message);
             if (!writing) {
                 writing = true;
                 reactor->StartWrite(&queue.front());
@@ -259,7 +264,18 @@ SOILVOL_UNARY_RPCS(SOILVOL_UNARY_RPC)
 
 grpc::ServerWriteReactor<v1::Estimate>* SoilVolumeService::WatchEstimates(
     grpc::CallbackServerContext* context, const v1::WatchEstimatesRequest* request) {
-    return new WatchStream(context, handlers_, dispatcher_, *request);
+    return new WatchStream<v1::Estimate>(
+        context, dispatcher_, "WatchEstimates", [this, request](auto deliver, auto ended) {
+            return handlers_.WatchEstimates(*request, std::move(deliver), std::move(ended));
+        });
+}
+
+grpc::ServerWriteReactor<v1::Alert>* SoilVolumeService::WatchAlerts(
+    grpc::CallbackServerContext* context, const v1::WatchAlertsRequest* request) {
+    return new WatchStream<v1::Alert>(
+        context, dispatcher_, "WatchAlerts", [this, request](auto deliver, auto ended) {
+            return handlers_.WatchAlerts(*request, std::move(deliver), std::move(ended));
+        });
 }
 
 grpc::ServerBidiReactor<v1::EstimateVolumeRequest, v1::StreamEstimatesResponse>*

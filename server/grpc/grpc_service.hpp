@@ -29,6 +29,8 @@ class SoilVolumeService final : public v1::SoilVolume::CallbackService {
     StreamEstimates(grpc::CallbackServerContext* context) override;
     grpc::ServerWriteReactor<v1::Estimate>* WatchEstimates(
         grpc::CallbackServerContext* context, const v1::WatchEstimatesRequest* request) override;
+    grpc::ServerWriteReactor<v1::Alert>* WatchAlerts(
+        grpc::CallbackServerContext* context, const v1::WatchAlertsRequest* request) override;
 
   private:
     grpc::ServerUnaryReactor* Unary(grpc::CallbackServerContext* context, const char* method,

@@ -4,6 +4,7 @@
 #include "core/pipeline/estimate_policy.hpp"
 #include "core/volume/load_status.hpp"
 #include "proto/convert/proto_convert.hpp"
+#include "server/handlers/alert_rules.hpp"
 #include "server/handlers/soilvol_handlers.hpp"
 
 namespace soilvol::server {
@@ -161,9 +162,13 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
                                                                 container->info.load_targets()));
     SOILVOL_ASSIGN_OR_RETURN(const Scan scan,
                              DecodeScan(request.scan(), container->info.calibration_id(), record));
-    SOILVOL_ASSIGN_OR_RETURN(
-        const pipeline::VolumeEstimate estimate,
-        RunEstimate(*container, scan, config, response->mutable_timings(), record.stop));
+    absl::StatusOr<pipeline::VolumeEstimate> run =
+        RunEstimate(*container, scan, config, response->mutable_timings(), record.stop);
+    if (!run.ok()) {
+        CountRefusal(request, container->info, run.status());
+        return run.status();
+    }
+    const pipeline::VolumeEstimate& estimate = *run;
 
     ToProto(estimate, response);
     if (scan.depth_counts) {
@@ -196,6 +201,10 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     measures.fill_ratio = response->fill_ratio();
     measures.load_status = response->load().status();
     measures.material = container->info.material().name();
+    for (v1::Alert& alert :
+         EstimateAlerts(RulesFor(&container->info, options_.alert_rules), *response, NowMicros())) {
+        *response->add_alerts() = std::move(alert);
+    }
     RecordEstimate(request, response, std::move(load_link), std::move(measures), record);
     if (request.omit_heightmap()) response->clear_heightmap();
     return absl::OkStatus();

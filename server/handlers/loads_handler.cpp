@@ -19,8 +19,6 @@ google::protobuf::Timestamp TimeOf(std::int64_t micros) {
     return TimeUtil::MicrosecondsToTimestamp(micros);
 }
 
-std::int64_t NowMicros() { return TimeUtil::TimestampToMicroseconds(NowTimestamp()); }
-
 /// A pass's figures from its record (see volume::SumPasses).
 volume::PassFigures PassOf(const v1::Estimate& estimate) {
     const v1::EstimateVolumeResponse& result = estimate.result();
@@ -237,6 +235,7 @@ absl::Status SoilVolumeHandlers::CreateLoad(const v1::CreateLoadRequest& request
         created = absl::OkStatus();
     }
     SOILVOL_RETURN_IF_ERROR(created);
+    JudgeClosed();  // the haul unit's previous load, closed by this one
     return BuildLoads({row}, {response});
 }
 
@@ -289,6 +288,7 @@ absl::Status SoilVolumeHandlers::CloseLoad(const v1::CloseLoadRequest& request, 
         store->CloseLoad(request.load_id(), NowMicros(), options_.load_idle_us, revision);
     if (absl::IsNotFound(row.status())) return Annotate(row.status(), "load_id");
     SOILVOL_RETURN_IF_ERROR(row.status());
+    JudgeClosed();
     return BuildLoads({*row}, {response});
 }
 

@@ -3,6 +3,7 @@
 #include "google/protobuf/util/time_util.h"
 #include "proto/convert/proto_convert.hpp"
 #include "server/base/status_map.hpp"
+#include "server/handlers/alert_rules.hpp"
 #include "server/handlers/resource_rules.hpp"
 #include "server/handlers/soilvol_handlers.hpp"
 #include "server/store/entry_id.hpp"
@@ -51,6 +52,7 @@ void SoilVolumeHandlers::RecordEstimate(const v1::EstimateVolumeRequest& request
     row.payload = kept.SerializeAsString();
     row.load = std::move(load);
     row.measures = std::move(measures);
+    for (const v1::Alert& alert : response->alerts()) row.alerts.push_back(ToAlertRecord(alert));
     // The dispatcher hands the completion over once the handler returned, so the response
     // is no longer written on the worker when the commit sets its id.
     record.finish_later = [recorder = recorder_, row = std::move(row),

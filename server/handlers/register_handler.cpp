@@ -11,6 +11,7 @@
 #include "google/protobuf/util/time_util.h"
 #include "proto/convert/proto_convert.hpp"
 #include "server/base/status_map.hpp"
+#include "server/handlers/alert_rules.hpp"
 #include "server/handlers/mesh_request.hpp"
 #include "server/handlers/resource_rules.hpp"
 #include "server/handlers/soilvol_handlers.hpp"
@@ -52,7 +53,7 @@ absl::Status CheckSettings(const v1::Container& container, const std::string& pr
     if (!rules.ok()) {
         return absl::InvalidArgumentError(absl::StrCat(prefix, rules.status().message()));
     }
-    return absl::OkStatus();
+    return CheckAlertRules(container.alert_rules(), absl::StrCat(prefix, "alert_rules"));
 }
 
 /// The request's settings into `container`, checked.
@@ -61,11 +62,12 @@ absl::Status ApplySettings(const v1::RegisterContainerRequest& request, v1::Cont
     *container->mutable_labels() = request.labels();
     if (request.has_material()) *container->mutable_material() = request.material();
     if (request.has_load_targets()) *container->mutable_load_targets() = request.load_targets();
+    if (request.has_alert_rules()) *container->mutable_alert_rules() = request.alert_rules();
     return CheckSettings(*container, "");
 }
 
-constexpr std::array<const char*, 4> kSettings = {"display_name", "labels", "material",
-                                                  "load_targets"};
+constexpr std::array<const char*, 5> kSettings = {"display_name", "labels", "material",
+                                                  "load_targets", "alert_rules"};
 
 /// The mask of an update (AIP-134): the request's paths that are settings or fields inside
 /// one ("*" for all settings), or - without paths - the settings the request sets. Paths of
@@ -80,6 +82,7 @@ absl::StatusOr<google::protobuf::FieldMask> UpdateMaskOf(
         if (given.labels_size() > 0) mask.add_paths("labels");
         if (given.has_material()) mask.add_paths("material");
         if (given.has_load_targets()) mask.add_paths("load_targets");
+        if (given.has_alert_rules()) mask.add_paths("alert_rules");
     }
     for (const std::string& path : request.update_mask().paths()) {
         if (path == "*") {
@@ -99,7 +102,7 @@ absl::StatusOr<google::protobuf::FieldMask> UpdateMaskOf(
     if (mask.paths_size() == 0) {
         return absl::InvalidArgumentError(
             "update_mask: names nothing UpdateContainer changes (display_name, labels, material, "
-            "load_targets, or a field of the last two)");
+            "load_targets, alert_rules, or a field of the last three)");
     }
     return mask;
 }

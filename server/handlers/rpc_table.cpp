@@ -45,11 +45,11 @@ std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& h) {
 }
 
 std::map<std::string, StreamRpc> MakeStreamTable(SoilVolumeHandlers& handlers) {
-    StreamRpc watch;
-    watch.new_request = [] { return std::make_unique<v1::WatchEstimatesRequest>(); };
-    watch.start = [&handlers](const google::protobuf::Message& request,
-                              std::function<bool(const google::protobuf::Message*)> deliver,
-                              std::function<void(const absl::Status&)> ended) {
+    StreamRpc estimates;
+    estimates.new_request = [] { return std::make_unique<v1::WatchEstimatesRequest>(); };
+    estimates.start = [&handlers](const google::protobuf::Message& request,
+                                  std::function<bool(const google::protobuf::Message*)> deliver,
+                                  std::function<void(const absl::Status&)> ended) {
         return handlers.WatchEstimates(
             static_cast<const v1::WatchEstimatesRequest&>(request),
             [deliver = std::move(deliver)](const v1::Estimate* estimate) {
@@ -57,10 +57,23 @@ std::map<std::string, StreamRpc> MakeStreamTable(SoilVolumeHandlers& handlers) {
             },
             std::move(ended));
     };
-    watch.id_field = "estimate_id";
-    watch.resume_field = "after_estimate_id";
-    watch.event = "estimate";
-    return {{"WatchEstimates", std::move(watch)}};
+    estimates.id_field = "estimate_id";
+    estimates.resume_field = "after_estimate_id";
+    estimates.event = "estimate";
+    StreamRpc alerts;
+    alerts.new_request = [] { return std::make_unique<v1::WatchAlertsRequest>(); };
+    alerts.start = [&handlers](const google::protobuf::Message& request,
+                               std::function<bool(const google::protobuf::Message*)> deliver,
+                               std::function<void(const absl::Status&)> ended) {
+        return handlers.WatchAlerts(
+            static_cast<const v1::WatchAlertsRequest&>(request),
+            [deliver = std::move(deliver)](const v1::Alert* alert) { return deliver(alert); },
+            std::move(ended));
+    };
+    alerts.id_field = "alert_id";
+    alerts.resume_field = "after_alert_id";
+    alerts.event = "alert";
+    return {{"WatchEstimates", std::move(estimates)}, {"WatchAlerts", std::move(alerts)}};
 }
 
 absl::Status CheckRpcTable(const std::map<std::string, Rpc>& table,

@@ -16,7 +16,7 @@
 #include "core/stereo/reconstructor.hpp"
 #include "core/volume/load_totals.hpp"
 #include "server/handlers/call_record.hpp"
-#include "server/records/estimate_feed.hpp"
+#include "server/records/record_feed.hpp"
 #include "server/records/recorder.hpp"
 #include "server/store/entry_cache.hpp"
 #include "server/store/entry_store.hpp"
@@ -42,6 +42,10 @@ struct HandlerOptions {
     /// Production's default zone and shift starts (--site-time-zone, --shift-starts).
     std::string site_time_zone = "UTC";
     std::vector<std::string> shift_starts = {"06:00", "18:00"};
+    /// The alerts of containers without their own rules, and of loads (--alert-rules).
+    v1::AlertRules alert_rules;
+    /// The configured webhooks (--webhooks-file), for ListWebhooks.
+    std::vector<v1::Webhook> webhooks;
 };
 
 /// The RPCs of soilvol.v1.SoilVolume over proto messages, free of any transport: the gRPC
@@ -50,10 +54,11 @@ struct HandlerOptions {
 /// errors are absl statuses whose messages name the request field at fault.
 class SoilVolumeHandlers {
   public:
-    /// `recorder` keeps estimate records and `feed` serves their watches; null: records are
-    /// off (estimates are not kept; Get/List/WatchEstimates fail with FAILED_PRECONDITION).
+    /// `recorder` keeps estimate records, `feed` serves their watches and `alert_feed` the
+    /// alerts'; null: records are off (estimates are not kept; the records' RPCs fail with
+    /// FAILED_PRECONDITION).
     SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder, EstimateFeed* feed,
-                       HandlerOptions options = {});
+                       AlertFeed* alert_feed, HandlerOptions options = {});
 
     absl::Status Calibrate(const v1::CalibrateRequest& request, v1::Calibration* response,
                            CallRecord& record);
@@ -103,6 +108,21 @@ class SoilVolumeHandlers {
     absl::StatusOr<std::function<void()>> WatchEstimates(const v1::WatchEstimatesRequest& request,
                                                          WatchDeliver deliver, WatchEnded ended);
 
+    absl::Status ListAlerts(const v1::ListAlertsRequest& request, v1::ListAlertsResponse* response,
+                            CallRecord& record);
+    /// WatchAlerts, as WatchEstimates.
+    using AlertDeliver = std::function<bool(const v1::Alert*)>;
+    absl::StatusOr<std::function<void()>> WatchAlerts(const v1::WatchAlertsRequest& request,
+                                                      AlertDeliver deliver, WatchEnded ended);
+    absl::Status ListWebhooks(const v1::ListWebhooksRequest& request,
+                              v1::ListWebhooksResponse* response, CallRecord& record);
+    absl::Status ListWebhookDeliveries(const v1::ListWebhookDeliveriesRequest& request,
+                                       v1::ListWebhookDeliveriesResponse* response,
+                                       CallRecord& record);
+    /// Judges every load whose close was not judged (closing idle ones first): each raises
+    /// LOAD_OFF_TARGET under its rules, once across replicas. CloseLoad and CreateLoad call it;
+    /// the server's sweeper every second. How many this call judged.
+    absl::StatusOr<int> JudgeLoads(std::int64_t now_us);
     absl::Status GetServerInfo(const v1::GetServerInfoRequest& request, v1::ServerInfo* response,
                                CallRecord& record);
 
@@ -199,6 +219,12 @@ class SoilVolumeHandlers {
     void RecordEstimate(const v1::EstimateVolumeRequest& request,
                         v1::EstimateVolumeResponse* response, std::optional<LoadLink> load,
                         Measures measures, CallRecord& record);
+    /// JudgeLoads now, its failure logged (the sweeper tries again).
+    void JudgeClosed();
+    /// A refused estimate (FAILED_PRECONDITION from the engine) counted in its container's run
+    /// of refusals (REFUSED_SCANS), when the request keeps records.
+    void CountRefusal(const v1::EstimateVolumeRequest& request, const v1::Container& container,
+                      const absl::Status& refused);
     /// The registration ListEstimates shows (RecordQuery::registration_id; "" = every one).
     absl::StatusOr<std::string> RegistrationFilter(const v1::ListEstimatesRequest& request);
     /// The recorder, or FailedPrecondition when records are off.
@@ -232,6 +258,7 @@ class SoilVolumeHandlers {
     const HandlerOptions options_;
     EstimateRecorder* const recorder_;
     EstimateFeed* const feed_;
+    AlertFeed* const alert_feed_;
     const google::protobuf::Timestamp start_time_;
     mutable EntryCache<CalibrationEntry> calibrations_;
     mutable EntryCache<ContainerEntry> containers_;

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/common/status_macros.hpp"
+#include "server/records/alert_sql.hpp"
 #include "server/records/record_store.hpp"
 
 namespace soilvol::server {
@@ -80,6 +81,8 @@ ALTER TABLE soilvol_loads ADD COLUMN IF NOT EXISTS passes BIGINT NOT NULL DEFAUL
 CREATE UNIQUE INDEX IF NOT EXISTS soilvol_loads_open_by_haul_unit
     ON soilvol_loads (haul_unit_id) WHERE state = 1;
 CREATE INDEX IF NOT EXISTS soilvol_loads_by_haul_unit ON soilvol_loads (haul_unit_id, seq);
+-- Loads from before alerts count as judged; CreateLoad writes 0.
+ALTER TABLE soilvol_loads ADD COLUMN IF NOT EXISTS judged INTEGER NOT NULL DEFAULT 1;
 )sql";
 
 constexpr const char* kPgLoadColumns =
@@ -238,8 +241,70 @@ absl::Status PgJoinLoad(pqxx::work& work, const EstimateRecord& record, JoinedLo
     return join;
 }
 
+AlertRecord PgAlertFrom(const pqxx::row& row) {
+    AlertRecord alert;
+    alert.id = row[0].as<std::int64_t>();
+    alert.kind = row[1].as<int>();
+    alert.create_time_us = row[2].as<std::int64_t>();
+    alert.container_id = row[3].as<std::string>();
+    alert.estimate_id = row[4].as<std::int64_t>();
+    alert.load_id = row[5].as<std::string>();
+    alert.haul_unit_id = row[6].as<std::string>();
+    alert.request_id = row[7].as<std::string>();
+    alert.message = row[8].as<std::string>();
+    alert.value = row[9].as<double>();
+    alert.threshold = row[10].as<double>();
+    return alert;
+}
+
+/// (cursor_id, last_delivery_us, failing_attempts, last_error, next_attempt_us)
+WebhookState PgWebhookFrom(const std::string& webhook_id, const pqxx::row& row) {
+    WebhookState state;
+    state.webhook_id = webhook_id;
+    state.cursor = row[0].as<std::int64_t>();
+    state.last_delivery_us = row[1].as<std::int64_t>();
+    state.failing_attempts = row[2].as<int>();
+    state.last_error = row[3].as<std::string>();
+    state.next_attempt_us = row[4].as<std::int64_t>();
+    return state;
+}
+
+DeliveryRecord PgDeliveryFrom(const pqxx::row& row) {
+    DeliveryRecord delivery;
+    delivery.id = row[0].as<std::int64_t>();
+    delivery.webhook_id = row[1].as<std::string>();
+    delivery.alert_id = row[2].as<std::int64_t>();
+    delivery.attempt = row[3].as<int>();
+    delivery.time_us = row[4].as<std::int64_t>();
+    delivery.outcome = row[5].as<int>();
+    delivery.http_status = row[6].as<int>();
+    delivery.error = row[7].as<std::string>();
+    delivery.latency_ms = row[8].as<double>();
+    delivery.delay_ms = row[9].as<double>();
+    return delivery;
+}
+
+void PgInsertAlert(pqxx::work& work, const AlertSql& sql, AlertRecord& alert) {
+    alert.id =
+        work.exec_params(sql.insert_alert, alert.kind, alert.create_time_us, alert.container_id,
+                         alert.estimate_id, alert.load_id, alert.haul_unit_id, alert.request_id,
+                         alert.message, alert.value, alert.threshold)[0][0]
+            .as<std::int64_t>();
+}
+
+/// A refused scan (see EstimateRecord::refusal): its container's run grows, and at
+/// alert_after its alert is kept.
+void PgCountRefusal(pqxx::work& work, const AlertSql& sql, EstimateRecord& record) {
+    record.id = 0;
+    const std::int64_t run =
+        work.exec_params(sql.count_refusal, record.container_id)[0][0].as<std::int64_t>();
+    if (run != record.refusal->alert_after) return;
+    AlertRecord alert = record.refusal->alert;
+    PgInsertAlert(work, sql, alert);
+}
+
 /// A refusal from inside a transaction (the transaction rolls back, the status is returned).
-struct LoadError {
+struct Refused {
     absl::Status status;
 };
 
@@ -248,8 +313,9 @@ class PostgresRecordStore final : public RecordStore {
     explicit PostgresRecordStore(std::string url) : url_(std::move(url)) {}
 
     absl::Status Init() {
-        return Run("create the schema", [](pqxx::work& work) {
+        return Run("create the schema", [this](pqxx::work& work) {
             work.exec(kPostgresSchema);
+            work.exec(sql_.schema);
             // A database made before the rollup: made from the fine table once.
             const pqxx::result missing = work.exec(
                 "SELECT EXISTS (SELECT 1 FROM soilvol_production) AND NOT EXISTS (SELECT 1 FROM "
@@ -262,11 +328,15 @@ class PostgresRecordStore final : public RecordStore {
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {
-        absl::Status status = Run("append", [&records](pqxx::work& work) {
+        absl::Status status = Run("append", [&records, &sql = sql_](pqxx::work& work) {
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             std::vector<ProductionCell> production;
             for (EstimateRecord& record : records) {
                 record.id = 0;
+                if (record.refusal) {
+                    PgCountRefusal(work, sql, record);
+                    continue;
+                }
                 JoinedLoad joined;
                 if (record.load) {
                     record.rejected = PgJoinLoad(work, record, &joined);
@@ -281,6 +351,11 @@ class PostgresRecordStore final : public RecordStore {
                     record.registration_id, record.load ? record.load->load_id : std::string(),
                     record.load ? record.load->role : 0);
                 record.id = id[0][0].as<std::int64_t>();
+                work.exec_params(sql.end_refusals, record.container_id);
+                for (AlertRecord& alert : record.alerts) {
+                    alert.estimate_id = record.id;
+                    PgInsertAlert(work, sql, alert);
+                }
                 if (!joined.body_scan) {
                     production.push_back(CellOf(record.measures, record.container_id,
                                                 joined.haul_unit_id, record.create_time_us,
@@ -345,6 +420,8 @@ class PostgresRecordStore final : public RecordStore {
                     .affected_rows();
             work.exec_params("DELETE FROM soilvol_loads WHERE update_time_us < $1 AND state = 2",
                              oldest);
+            work.exec_params(sql_.prune_alerts, oldest);
+            work.exec_params(sql_.prune_deliveries, oldest);
             if (!containers) {
                 deleted += work.exec_params(
                                    "DELETE FROM soilvol_estimates WHERE id IN (SELECT id FROM "
@@ -374,6 +451,7 @@ class PostgresRecordStore final : public RecordStore {
             deleted = work.exec_params("DELETE FROM soilvol_estimates WHERE container_id = $1",
                                        container_id)
                           .affected_rows();
+            work.exec_params(sql_.purge_alerts, container_id);
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             work.exec_params("DELETE FROM soilvol_production WHERE container_id = $1",
                              container_id);
@@ -386,7 +464,7 @@ class PostgresRecordStore final : public RecordStore {
         return Run("create a load", [&](pqxx::work& work) {
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             if (PgReadLoad(work, load.load_id)) {
-                throw LoadError{absl::AlreadyExistsError(
+                throw Refused{absl::AlreadyExistsError(
                     absl::StrCat("load_id: load '", load.load_id, "' already exists"))};
             }
             const pqxx::result open = work.exec_params(
@@ -403,8 +481,8 @@ class PostgresRecordStore final : public RecordStore {
             const pqxx::result seq = work.exec_params(
                 "INSERT INTO soilvol_loads (load_id, haul_unit_id, body_container_id, state, "
                 "close_reason, create_time_us, update_time_us, close_time_us, last_activity_us, "
-                "revision, request_id, payload, passes) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, "
-                "$9, $10, $11, $12, 0) RETURNING seq",
+                "revision, request_id, payload, passes, judged) VALUES ($1, $2, $3, $4, $5, $6, "
+                "$7, $8, $9, $10, $11, $12, 0, 0) RETURNING seq",
                 load.load_id, load.haul_unit_id, load.body_container_id, load.state,
                 load.close_reason, load.create_time_us, load.update_time_us, load.close_time_us,
                 load.last_activity_us, load.revision, load.request_id, payload);
@@ -450,11 +528,10 @@ class PostgresRecordStore final : public RecordStore {
         SOILVOL_RETURN_IF_ERROR(Run("close a load", [&](pqxx::work& work) {
             std::optional<LoadRecord> load = PgReadLoad(work, load_id);
             if (!load) {
-                throw LoadError{
-                    absl::NotFoundError(absl::StrCat("load '", load_id, "' not found"))};
+                throw Refused{absl::NotFoundError(absl::StrCat("load '", load_id, "' not found"))};
             }
             if (absl::Status current = CheckLoadRevision(*load, revision); !current.ok()) {
-                throw LoadError{current};
+                throw Refused{current};
             }
             if (CloseLoadAt(*load, LoadRecord::kExplicit, now_us, idle_us)) {
                 PgWriteLoadState(work, *load);
@@ -495,6 +572,98 @@ class PostgresRecordStore final : public RecordStore {
         return out;
     }
 
+    absl::StatusOr<std::vector<AlertRecord>> ListAlerts(const AlertQuery& query) override {
+        std::vector<AlertRecord> out;
+        SOILVOL_RETURN_IF_ERROR(Run("list alerts", [&](pqxx::work& work) {
+            const pqxx::result rows = work.exec_params(
+                sql_.ListAlertsSql(query.after_id.has_value()), query.after_id.value_or(0),
+                query.before_id.value_or(std::numeric_limits<std::int64_t>::max()),
+                query.start_time_us, query.end_time_us, query.container_id, query.kind,
+                static_cast<std::int64_t>(query.limit));
+            for (const pqxx::row& row : rows) out.push_back(PgAlertFrom(row));
+        }));
+        return out;
+    }
+
+    absl::StatusOr<std::vector<std::string>> UnjudgedLoads(std::int64_t idle_before_us,
+                                                           int limit) override {
+        std::vector<std::string> out;
+        SOILVOL_RETURN_IF_ERROR(Run("find loads to judge", [&](pqxx::work& work) {
+            const pqxx::result rows = work.exec_params(sql_.unjudged_loads, idle_before_us,
+                                                       static_cast<std::int64_t>(limit));
+            for (const pqxx::row& row : rows) out.push_back(row[0].as<std::string>());
+        }));
+        return out;
+    }
+
+    absl::StatusOr<bool> JudgeLoad(const std::string& load_id,
+                                   std::optional<AlertRecord>& alert) override {
+        bool judged = false;
+        SOILVOL_RETURN_IF_ERROR(Run("judge a load", [&](pqxx::work& work) {
+            work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
+            judged = work.exec_params(sql_.judge_load, load_id).affected_rows() == 1;
+            if (judged && alert) PgInsertAlert(work, sql_, *alert);
+        }));
+        return judged;
+    }
+
+    absl::StatusOr<std::optional<WebhookState>> LeaseWebhook(const std::string& webhook_id,
+                                                             const std::string& holder,
+                                                             std::int64_t now_us,
+                                                             std::int64_t lease_until_us) override {
+        std::optional<WebhookState> state;
+        SOILVOL_RETURN_IF_ERROR(Run("lease a webhook", [&](pqxx::work& work) {
+            work.exec_params(sql_.create_webhook, webhook_id);
+            const pqxx::result rows =
+                work.exec_params(sql_.lease_webhook, webhook_id, holder, now_us, lease_until_us);
+            if (!rows.empty()) state = PgWebhookFrom(webhook_id, rows[0]);
+        }));
+        return state;
+    }
+
+    absl::Status SaveWebhook(const std::string& holder, const WebhookState& state,
+                             DeliveryRecord* attempt) override {
+        return Run("save a webhook", [&](pqxx::work& work) {
+            const pqxx::result saved = work.exec_params(
+                sql_.save_webhook, state.webhook_id, holder, state.cursor, state.last_delivery_us,
+                state.failing_attempts, state.last_error, state.next_attempt_us);
+            if (saved.affected_rows() != 1) throw Refused{LostLease(state.webhook_id)};
+            if (attempt == nullptr) return;
+            const DeliveryRecord& d = *attempt;
+            attempt->id = work.exec_params(sql_.insert_delivery, d.webhook_id, d.alert_id,
+                                           d.attempt, d.time_us, d.outcome, d.http_status, d.error,
+                                           d.latency_ms, d.delay_ms)[0][0]
+                              .as<std::int64_t>();
+        });
+    }
+
+    absl::StatusOr<std::vector<WebhookState>> WebhookStates(
+        const std::vector<std::string>& webhook_ids) override {
+        std::vector<WebhookState> out;
+        SOILVOL_RETURN_IF_ERROR(Run("read webhooks", [&](pqxx::work& work) {
+            for (const std::string& id : webhook_ids) {
+                const pqxx::result rows = work.exec_params(sql_.webhook_state, id);
+                if (rows.empty()) continue;
+                out.push_back(PgWebhookFrom(id, rows[0]));
+                out.back().pending = rows[0][5].as<std::int64_t>();
+            }
+        }));
+        return out;
+    }
+
+    absl::StatusOr<std::vector<DeliveryRecord>> ListDeliveries(
+        const DeliveryQuery& query) override {
+        std::vector<DeliveryRecord> out;
+        SOILVOL_RETURN_IF_ERROR(Run("list deliveries", [&](pqxx::work& work) {
+            const pqxx::result rows =
+                work.exec_params(sql_.list_deliveries, query.webhook_id, query.alert_id,
+                                 query.before_id.value_or(std::numeric_limits<std::int64_t>::max()),
+                                 static_cast<std::int64_t>(query.limit));
+            for (const pqxx::row& row : rows) out.push_back(PgDeliveryFrom(row));
+        }));
+        return out;
+    }
+
     const char* kind() const override { return "postgresql"; }
 
   private:
@@ -515,7 +684,7 @@ class PostgresRecordStore final : public RecordStore {
             } catch (const pqxx::broken_connection& e) {
                 connection_.reset();
                 if (attempt > 0) return PgError(e, what);
-            } catch (const LoadError& e) {
+            } catch (const Refused& e) {
                 return e.status;
             } catch (const std::exception& e) {
                 return PgError(e, what);
@@ -524,6 +693,7 @@ class PostgresRecordStore final : public RecordStore {
     }
 
     const std::string url_;
+    const AlertSql sql_{"soilvol_", false};
     std::mutex mutex_;
     std::unique_ptr<pqxx::connection> connection_;
 };

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "server/records/alert_record.hpp"
 #include "server/records/load_record.hpp"
 #include "server/records/production.hpp"
 
@@ -33,6 +34,11 @@ struct EstimateRecord {
     /// Set by Append for a record it did not keep (its id stays 0): FailedPrecondition for a
     /// pass to a closed load, NotFound for a load that does not exist.
     absl::Status rejected;
+    /// The alerts this estimate raised: kept with it (their estimate_id and id set by Append).
+    std::vector<AlertRecord> alerts;
+    /// Set for a refused scan: Append counts it in its container's run of refusals (and keeps
+    /// the refusal's alert when the run reaches alert_after) but keeps no record (id stays 0).
+    std::optional<Refusal> refusal;
 };
 
 /// Which records a List returns.
@@ -79,14 +85,14 @@ class RecordStore {
     /// (through the time index), and all but the newest max_per_container records of each
     /// container in `containers` - those that got records since the last prune, the only ones
     /// that can have grown past it (each through the (container, id) index) - or, with
-    /// nullopt, of every container (a scan of the whole table: once, at start). The number
-    /// deleted.
+    /// nullopt, of every container (a scan of the whole table: once, at start). Alerts and
+    /// webhook deliveries older than max_age go too. The number of records deleted.
     virtual absl::StatusOr<std::int64_t> Prune(
         const RetentionPolicy& policy, std::int64_t now_us,
         const std::optional<std::vector<std::string>>& containers) = 0;
 
-    /// Deletes every record of `container_id` (DeleteContainer with purge_records); the number
-    /// deleted.
+    /// Deletes every record and alert of `container_id` (DeleteContainer with purge_records);
+    /// the number of records deleted.
     virtual absl::StatusOr<std::int64_t> DeleteContainer(const std::string& container_id) = 0;
 
     /// Creates `load` (sets its seq) and, in the same transaction, closes its haul unit's open
@@ -113,6 +119,36 @@ class RecordStore {
     /// Every record of these loads (with payloads and their LoadLink), oldest first.
     virtual absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
         const std::vector<std::string>& load_ids) = 0;
+
+    /// Alerts (see AlertQuery), with their ids.
+    virtual absl::StatusOr<std::vector<AlertRecord>> ListAlerts(const AlertQuery& query) = 0;
+    /// Loads whose close was not judged yet (JudgeLoad): closed ones, and open ones idle since
+    /// before idle_before_us (ApplyIdleClose would close them), oldest first. Loads kept from
+    /// before alerts existed count as judged.
+    virtual absl::StatusOr<std::vector<std::string>> UnjudgedLoads(std::int64_t idle_before_us,
+                                                                   int limit) = 0;
+    /// Marks a load's close judged and, in the same transaction, keeps `alert` (setting its id)
+    /// when there is one: once per load however many replicas judge it. Whether this call
+    /// judged it (false: judged before, or no such load).
+    virtual absl::StatusOr<bool> JudgeLoad(const std::string& load_id,
+                                           std::optional<AlertRecord>& alert) = 0;
+
+    /// A webhook's state (created at the newest alert when new: it takes alerts from then on),
+    /// leased to `holder` until lease_until_us when free (no lease, or an expired one, at
+    /// now_us) or already the holder's; none when another replica holds it.
+    virtual absl::StatusOr<std::optional<WebhookState>> LeaseWebhook(
+        const std::string& webhook_id, const std::string& holder, std::int64_t now_us,
+        std::int64_t lease_until_us) = 0;
+    /// Writes `state` (cursor, delivery state) and the attempt, if any (setting its id), when
+    /// `holder` still holds the lease; Aborted when it lost it (another replica sends now).
+    virtual absl::Status SaveWebhook(const std::string& holder, const WebhookState& state,
+                                     DeliveryRecord* attempt) = 0;
+    /// The state of each of these webhooks that has one, with its pending alerts.
+    virtual absl::StatusOr<std::vector<WebhookState>> WebhookStates(
+        const std::vector<std::string>& webhook_ids) = 0;
+    /// The delivery log, newest first.
+    virtual absl::StatusOr<std::vector<DeliveryRecord>> ListDeliveries(
+        const DeliveryQuery& query) = 0;
 
     /// "sqlite" or "postgresql", for logs and metrics.
     virtual const char* kind() const = 0;

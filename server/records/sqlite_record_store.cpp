@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
+#include "server/records/alert_sql.hpp"
 #include "server/records/record_store.hpp"
 
 namespace soilvol::server {
@@ -87,6 +88,8 @@ constexpr AddedColumn kAddedColumns[] = {
     {"estimates", "load_role",
      "ALTER TABLE estimates ADD COLUMN load_role INTEGER NOT NULL DEFAULT 0"},
     {"loads", "passes", "ALTER TABLE loads ADD COLUMN passes INTEGER NOT NULL DEFAULT 0"},
+    // Loads from before alerts count as judged; CreateLoad writes 0.
+    {"loads", "judged", "ALTER TABLE loads ADD COLUMN judged INTEGER NOT NULL DEFAULT 1"},
 };
 
 constexpr const char* kSqliteAddedIndexes = R"sql(
@@ -233,6 +236,62 @@ void BindValues(Statement& statement, int first, const ProductionCell& cell) {
     }
 }
 
+AlertRecord AlertFrom(const Statement& row) {
+    AlertRecord alert;
+    alert.id = row.Int(0);
+    alert.kind = static_cast<int>(row.Int(1));
+    alert.create_time_us = row.Int(2);
+    alert.container_id = row.Text(3);
+    alert.estimate_id = row.Int(4);
+    alert.load_id = row.Text(5);
+    alert.haul_unit_id = row.Text(6);
+    alert.request_id = row.Text(7);
+    alert.message = row.Text(8);
+    alert.value = row.Real(9);
+    alert.threshold = row.Real(10);
+    return alert;
+}
+
+/// A webhook's state from (cursor_id, last_delivery_us, failing_attempts, last_error,
+/// next_attempt_us).
+WebhookState WebhookFrom(const std::string& webhook_id, const Statement& row) {
+    WebhookState state;
+    state.webhook_id = webhook_id;
+    state.cursor = row.Int(0);
+    state.last_delivery_us = row.Int(1);
+    state.failing_attempts = static_cast<int>(row.Int(2));
+    state.last_error = row.Text(3);
+    state.next_attempt_us = row.Int(4);
+    return state;
+}
+
+DeliveryRecord DeliveryFrom(const Statement& row) {
+    DeliveryRecord delivery;
+    delivery.id = row.Int(0);
+    delivery.webhook_id = row.Text(1);
+    delivery.alert_id = row.Int(2);
+    delivery.attempt = static_cast<int>(row.Int(3));
+    delivery.time_us = row.Int(4);
+    delivery.outcome = static_cast<int>(row.Int(5));
+    delivery.http_status = static_cast<int>(row.Int(6));
+    delivery.error = row.Text(7);
+    delivery.latency_ms = row.Real(8);
+    delivery.delay_ms = row.Real(9);
+    return delivery;
+}
+
+void BindDelivery(Statement& insert, const DeliveryRecord& d) {
+    insert.Bind(1, d.webhook_id);
+    insert.Bind(2, d.alert_id);
+    insert.Bind(3, std::int64_t{d.attempt});
+    insert.Bind(4, d.time_us);
+    insert.Bind(5, std::int64_t{d.outcome});
+    insert.Bind(6, std::int64_t{d.http_status});
+    insert.Bind(7, d.error);
+    insert.Bind(8, d.latency_ms);
+    insert.Bind(9, d.delay_ms);
+}
+
 class SqliteRecordStore final : public RecordStore {
   public:
     explicit SqliteRecordStore(sqlite3* db) : db_(db) {}
@@ -248,6 +307,7 @@ class SqliteRecordStore final : public RecordStore {
             if (!has_column) SOILVOL_RETURN_IF_ERROR(Exec(added.alter));
         }
         SOILVOL_RETURN_IF_ERROR(Exec(kSqliteAddedIndexes));
+        SOILVOL_RETURN_IF_ERROR(Exec(sql_.schema.c_str()));
         // A database made before the rollup: made from the fine table once.
         Statement missing(db_,
                           "SELECT EXISTS (SELECT 1 FROM production) AND NOT EXISTS (SELECT 1 "
@@ -285,11 +345,12 @@ class SqliteRecordStore final : public RecordStore {
                 CloseLoadAt(previous, LoadRecord::kNewLoad, load.create_time_us, idle_us);
                 SOILVOL_RETURN_IF_ERROR(WriteLoadState(previous));
             }
-            Statement insert(db_,
-                             "INSERT INTO loads (load_id, haul_unit_id, body_container_id, state, "
-                             "close_reason, create_time_us, update_time_us, close_time_us, "
-                             "last_activity_us, revision, request_id, payload, passes) VALUES "
-                             "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, 0)");
+            Statement insert(
+                db_,
+                "INSERT INTO loads (load_id, haul_unit_id, body_container_id, state, "
+                "close_reason, create_time_us, update_time_us, close_time_us, "
+                "last_activity_us, revision, request_id, payload, passes, judged) VALUES "
+                "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, 0, 0)");
             SOILVOL_RETURN_IF_ERROR(insert.Prepared("create a load"));
             insert.Bind(1, load.load_id);
             insert.Bind(2, load.haul_unit_id);
@@ -456,6 +517,15 @@ class SqliteRecordStore final : public RecordStore {
             1,
             now_us - std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count());
         SOILVOL_RETURN_IF_ERROR(old_loads.Step("prune loads by age").status());
+        for (const std::string* sql : {&sql_.prune_alerts, &sql_.prune_deliveries}) {
+            Statement prune(db_, *sql);
+            SOILVOL_RETURN_IF_ERROR(prune.Prepared("prune alerts by age"));
+            prune.Bind(
+                1,
+                now_us -
+                    std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count());
+            SOILVOL_RETURN_IF_ERROR(prune.Step("prune alerts by age").status());
+        }
         if (!containers) {
             Statement surplus(db_,
                               "DELETE FROM estimates WHERE id IN (SELECT id FROM (SELECT id, "
@@ -490,6 +560,10 @@ class SqliteRecordStore final : public RecordStore {
             purge.Bind(1, container_id);
             SOILVOL_RETURN_IF_ERROR(purge.Step("delete a container's records").status());
             deleted = sqlite3_changes(db_);
+            Statement alerts(db_, sql_.purge_alerts);
+            SOILVOL_RETURN_IF_ERROR(alerts.Prepared("delete a container's alerts"));
+            alerts.Bind(1, container_id);
+            SOILVOL_RETURN_IF_ERROR(alerts.Step("delete a container's alerts").status());
             Statement cells(db_, "DELETE FROM production WHERE container_id = ?1");
             SOILVOL_RETURN_IF_ERROR(cells.Prepared("delete a container's production"));
             cells.Bind(1, container_id);
@@ -498,6 +572,145 @@ class SqliteRecordStore final : public RecordStore {
         });
         SOILVOL_RETURN_IF_ERROR(done);
         return deleted;
+    }
+
+    absl::StatusOr<std::vector<AlertRecord>> ListAlerts(const AlertQuery& query) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, sql_.ListAlertsSql(query.after_id.has_value()));
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("list alerts"));
+        select.Bind(1, query.after_id.value_or(0));
+        select.Bind(2, query.before_id.value_or(std::numeric_limits<std::int64_t>::max()));
+        select.Bind(3, query.start_time_us);
+        select.Bind(4, query.end_time_us);
+        select.Bind(5, query.container_id);
+        select.Bind(6, std::int64_t{query.kind});
+        select.Bind(7, static_cast<std::int64_t>(query.limit));
+        std::vector<AlertRecord> out;
+        while (true) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("list alerts"));
+            if (!row) break;
+            out.push_back(AlertFrom(select));
+        }
+        return out;
+    }
+
+    absl::StatusOr<std::vector<std::string>> UnjudgedLoads(std::int64_t idle_before_us,
+                                                           int limit) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, sql_.unjudged_loads);
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("find loads to judge"));
+        select.Bind(1, idle_before_us);
+        select.Bind(2, std::int64_t{limit});
+        std::vector<std::string> out;
+        while (true) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("find loads to judge"));
+            if (!row) break;
+            out.push_back(select.Text(0));
+        }
+        return out;
+    }
+
+    absl::StatusOr<bool> JudgeLoad(const std::string& load_id,
+                                   std::optional<AlertRecord>& alert) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        bool judged = false;
+        const absl::Status done = InTransaction([&]() -> absl::Status {
+            Statement mark(db_, sql_.judge_load);
+            SOILVOL_RETURN_IF_ERROR(mark.Prepared("judge a load"));
+            mark.Bind(1, load_id);
+            SOILVOL_RETURN_IF_ERROR(mark.Step("judge a load").status());
+            judged = sqlite3_changes(db_) == 1;
+            if (!judged || !alert) return absl::OkStatus();
+            return InsertAlert(*alert);
+        });
+        SOILVOL_RETURN_IF_ERROR(done);
+        return judged;
+    }
+
+    absl::StatusOr<std::optional<WebhookState>> LeaseWebhook(const std::string& webhook_id,
+                                                             const std::string& holder,
+                                                             std::int64_t now_us,
+                                                             std::int64_t lease_until_us) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        std::optional<WebhookState> state;
+        const absl::Status done = InTransaction([&]() -> absl::Status {
+            Statement create(db_, sql_.create_webhook);
+            SOILVOL_RETURN_IF_ERROR(create.Prepared("lease a webhook"));
+            create.Bind(1, webhook_id);
+            SOILVOL_RETURN_IF_ERROR(create.Step("lease a webhook").status());
+            Statement lease(db_, sql_.lease_webhook);
+            SOILVOL_RETURN_IF_ERROR(lease.Prepared("lease a webhook"));
+            lease.Bind(1, webhook_id);
+            lease.Bind(2, holder);
+            lease.Bind(3, now_us);
+            lease.Bind(4, lease_until_us);
+            SOILVOL_ASSIGN_OR_RETURN(const bool leased, lease.Step("lease a webhook"));
+            if (leased) state = WebhookFrom(webhook_id, lease);
+            return absl::OkStatus();
+        });
+        SOILVOL_RETURN_IF_ERROR(done);
+        return state;
+    }
+
+    absl::Status SaveWebhook(const std::string& holder, const WebhookState& state,
+                             DeliveryRecord* attempt) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return InTransaction([&]() -> absl::Status {
+            Statement save(db_, sql_.save_webhook);
+            SOILVOL_RETURN_IF_ERROR(save.Prepared("save a webhook"));
+            save.Bind(1, state.webhook_id);
+            save.Bind(2, holder);
+            save.Bind(3, state.cursor);
+            save.Bind(4, state.last_delivery_us);
+            save.Bind(5, std::int64_t{state.failing_attempts});
+            save.Bind(6, state.last_error);
+            save.Bind(7, state.next_attempt_us);
+            SOILVOL_RETURN_IF_ERROR(save.Step("save a webhook").status());
+            if (sqlite3_changes(db_) != 1) return LostLease(state.webhook_id);
+            if (attempt == nullptr) return absl::OkStatus();
+            Statement insert(db_, sql_.insert_delivery);
+            SOILVOL_RETURN_IF_ERROR(insert.Prepared("log a delivery"));
+            BindDelivery(insert, *attempt);
+            SOILVOL_RETURN_IF_ERROR(insert.Step("log a delivery").status());
+            attempt->id = insert.Int(0);
+            return absl::OkStatus();
+        });
+    }
+
+    absl::StatusOr<std::vector<WebhookState>> WebhookStates(
+        const std::vector<std::string>& webhook_ids) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, sql_.webhook_state);
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("read webhooks"));
+        std::vector<WebhookState> out;
+        for (const std::string& id : webhook_ids) {
+            select.Bind(1, id);
+            SOILVOL_ASSIGN_OR_RETURN(const bool found, select.Step("read webhooks"));
+            if (found) {
+                out.push_back(WebhookFrom(id, select));
+                out.back().pending = select.Int(5);
+            }
+            select.Reset();
+        }
+        return out;
+    }
+
+    absl::StatusOr<std::vector<DeliveryRecord>> ListDeliveries(
+        const DeliveryQuery& query) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, sql_.list_deliveries);
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("list deliveries"));
+        select.Bind(1, query.webhook_id);
+        select.Bind(2, query.alert_id);
+        select.Bind(3, query.before_id.value_or(std::numeric_limits<std::int64_t>::max()));
+        select.Bind(4, static_cast<std::int64_t>(query.limit));
+        std::vector<DeliveryRecord> out;
+        while (true) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("list deliveries"));
+            if (!row) break;
+            out.push_back(DeliveryFrom(select));
+        }
+        return out;
     }
 
     const char* kind() const override { return "sqlite"; }
@@ -566,6 +779,50 @@ class SqliteRecordStore final : public RecordStore {
         return join;
     }
 
+    /// A refused scan: its container's run grows, and at alert_after its alert is kept.
+    absl::Status CountRefusal(EstimateRecord& record) {
+        record.id = 0;
+        Statement count(db_, sql_.count_refusal);
+        SOILVOL_RETURN_IF_ERROR(count.Prepared("count a refusal"));
+        count.Bind(1, record.container_id);
+        SOILVOL_RETURN_IF_ERROR(count.Step("count a refusal").status());
+        const std::int64_t run = count.Int(0);
+        if (run != record.refusal->alert_after) return absl::OkStatus();
+        AlertRecord alert = record.refusal->alert;
+        return InsertAlert(alert);
+    }
+
+    /// A kept record: its alerts kept, its container's run of refusals over.
+    absl::Status KeepAlerts(EstimateRecord& record) {
+        Statement end(db_, sql_.end_refusals);
+        SOILVOL_RETURN_IF_ERROR(end.Prepared("end a run of refusals"));
+        end.Bind(1, record.container_id);
+        SOILVOL_RETURN_IF_ERROR(end.Step("end a run of refusals").status());
+        for (AlertRecord& alert : record.alerts) {
+            alert.estimate_id = record.id;
+            SOILVOL_RETURN_IF_ERROR(InsertAlert(alert));
+        }
+        return absl::OkStatus();
+    }
+
+    absl::Status InsertAlert(AlertRecord& alert) {
+        Statement insert(db_, sql_.insert_alert);
+        SOILVOL_RETURN_IF_ERROR(insert.Prepared("keep an alert"));
+        insert.Bind(1, std::int64_t{alert.kind});
+        insert.Bind(2, alert.create_time_us);
+        insert.Bind(3, alert.container_id);
+        insert.Bind(4, alert.estimate_id);
+        insert.Bind(5, alert.load_id);
+        insert.Bind(6, alert.haul_unit_id);
+        insert.Bind(7, alert.request_id);
+        insert.Bind(8, alert.message);
+        insert.Bind(9, alert.value);
+        insert.Bind(10, alert.threshold);
+        SOILVOL_RETURN_IF_ERROR(insert.Step("keep an alert").status());
+        alert.id = insert.Int(0);
+        return absl::OkStatus();
+    }
+
     absl::Status Exec(const char* sql) {
         char* error = nullptr;
         const int code = sqlite3_exec(db_, sql, nullptr, nullptr, &error);
@@ -584,6 +841,10 @@ class SqliteRecordStore final : public RecordStore {
         Statement rollup(db_, RollupUpsertSql("production_rollup", '?'));
         SOILVOL_RETURN_IF_ERROR(rollup.Prepared("add to production"));
         for (EstimateRecord& record : records) {
+            if (record.refusal) {
+                SOILVOL_RETURN_IF_ERROR(CountRefusal(record));
+                continue;
+            }
             JoinedLoad joined;
             if (record.load) {
                 SOILVOL_ASSIGN_OR_RETURN(record.rejected, JoinLoad(record, &joined));
@@ -602,6 +863,7 @@ class SqliteRecordStore final : public RecordStore {
             SOILVOL_RETURN_IF_ERROR(insert.Step("insert").status());
             record.id = sqlite3_last_insert_rowid(db_);
             insert.Reset();
+            SOILVOL_RETURN_IF_ERROR(KeepAlerts(record));
             if (!joined.body_scan) {
                 SOILVOL_RETURN_IF_ERROR(AddProduction(fine, rollup, record, joined));
             }
@@ -643,6 +905,7 @@ class SqliteRecordStore final : public RecordStore {
 
     sqlite3* db_;
     std::mutex mutex_;
+    const AlertSql sql_{"", true};
 };
 
 }  // namespace

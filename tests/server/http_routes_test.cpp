@@ -49,6 +49,10 @@ TEST(HttpRoutes, AnnotationsGiveTheDocumentedContract) {
         "GET /v1/loads ListLoads",
         "POST /v1/loads/{load_id}:close CloseLoad",
         "GET /v1/production GetProduction",
+        "GET /v1/alerts ListAlerts",
+        "GET /v1/alerts:watch WatchAlerts",
+        "GET /v1/webhooks ListWebhooks",
+        "GET /v1/webhooks/{webhook_id}/deliveries ListWebhookDeliveries",
     };
     EXPECT_EQ(got, expected);
 }

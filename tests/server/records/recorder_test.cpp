@@ -169,6 +169,29 @@ class DownStore final : public RecordStore {
         const std::vector<std::string>&) override {
         return absl::UnavailableError("connection refused");
     }
+    absl::StatusOr<std::vector<AlertRecord>> ListAlerts(const AlertQuery&) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::vector<std::string>> UnjudgedLoads(std::int64_t, int) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<bool> JudgeLoad(const std::string&, std::optional<AlertRecord>&) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::optional<WebhookState>> LeaseWebhook(const std::string&, const std::string&,
+                                                             std::int64_t, std::int64_t) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::Status SaveWebhook(const std::string&, const WebhookState&, DeliveryRecord*) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::vector<WebhookState>> WebhookStates(
+        const std::vector<std::string>&) override {
+        return absl::UnavailableError("connection refused");
+    }
+    absl::StatusOr<std::vector<DeliveryRecord>> ListDeliveries(const DeliveryQuery&) override {
+        return absl::UnavailableError("connection refused");
+    }
     const char* kind() const override { return "down"; }
     std::atomic<int> appends{0};
 };

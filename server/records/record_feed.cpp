@@ -1,12 +1,14 @@
-#include "server/records/estimate_feed.hpp"
+#include "server/records/record_feed.hpp"
 
 #include <algorithm>
+#include <type_traits>
 
 #include "absl/strings/str_cat.h"
 
 namespace soilvol::server {
 
-class EstimateFeed::Watch {
+template <typename Row>
+class RecordFeed<Row>::Watch {
   public:
     Watch(Spec spec, Deliver deliver, Ended ended)
         : spec_(std::move(spec)), deliver_(std::move(deliver)), ended_(std::move(ended)) {}
@@ -19,7 +21,7 @@ class EstimateFeed::Watch {
 
     /// Delivers unless stopped; false when the watch is (now) over.
     /// `record` null: a heartbeat.
-    bool Offer(const EstimateRecord* record) {
+    bool Offer(const Row* record) {
         std::lock_guard<std::mutex> lock(call_mutex_);
         if (!live_) return false;
         if (record != nullptr && !spec_.container_id.empty() &&
@@ -51,24 +53,27 @@ class EstimateFeed::Watch {
     Ended ended_;
 };
 
-EstimateFeed::EstimateFeed(EstimateRecorder& recorder, Config config)
-    : recorder_(recorder), config_(config) {
+template <typename Row>
+RecordFeed<Row>::RecordFeed(EstimateRecorder& recorder, Source source, Config config)
+    : recorder_(recorder), source_(std::move(source)), config_(config) {
     ReadNewestId();
     thread_ = std::thread([this] { Run(); });
 }
 
-void EstimateFeed::ReadNewestId() {
-    RecordQuery newest;
-    newest.limit = 1;
-    newest.with_payload = false;
-    if (auto rows = recorder_.store().List(newest); rows.ok() && !rows->empty()) {
-        newest_ = std::max(newest_, rows->front().id);
+template <typename Row>
+void RecordFeed<Row>::ReadNewestId() {
+    if (const std::optional<std::int64_t> newest = source_.newest()) {
+        newest_ = std::max(newest_, *newest);
     }
 }
 
-EstimateFeed::~EstimateFeed() { Shutdown(); }
+template <typename Row>
+RecordFeed<Row>::~RecordFeed() {
+    Shutdown();
+}
 
-void EstimateFeed::Shutdown() {
+template <typename Row>
+void RecordFeed<Row>::Shutdown() {
     {
         std::lock_guard<std::mutex> lock(mutex_);
         if (stopping_) return;
@@ -78,8 +83,9 @@ void EstimateFeed::Shutdown() {
     thread_.join();
 }
 
-absl::StatusOr<std::shared_ptr<EstimateFeed::Watch>> EstimateFeed::Start(Spec spec, Deliver deliver,
-                                                                         Ended ended) {
+template <typename Row>
+absl::StatusOr<std::shared_ptr<typename RecordFeed<Row>::Watch>> RecordFeed<Row>::Start(
+    Spec spec, Deliver deliver, Ended ended) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return absl::UnavailableError("the server is shutting down");
     if (watches_.size() >= config_.max_watches) {
@@ -94,32 +100,33 @@ absl::StatusOr<std::shared_ptr<EstimateFeed::Watch>> EstimateFeed::Start(Spec sp
     return watch;
 }
 
-void EstimateFeed::Stop(const std::shared_ptr<Watch>& watch) {
+template <typename Row>
+void RecordFeed<Row>::Stop(const std::shared_ptr<Watch>& watch) {
     watch->Close(absl::OkStatus(), false);
     std::lock_guard<std::mutex> lock(mutex_);
     watches_.erase(std::remove(watches_.begin(), watches_.end(), watch), watches_.end());
 }
 
-std::size_t EstimateFeed::watches() const {
+template <typename Row>
+std::size_t RecordFeed<Row>::watches() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return watches_.size();
 }
 
-void EstimateFeed::End(const std::shared_ptr<Watch>& watch, const absl::Status& status) {
+template <typename Row>
+void RecordFeed<Row>::End(const std::shared_ptr<Watch>& watch, const absl::Status& status) {
     watch->Close(status, true);
     std::lock_guard<std::mutex> lock(mutex_);
     watches_.erase(std::remove(watches_.begin(), watches_.end(), watch), watches_.end());
 }
 
-bool EstimateFeed::CatchUp(Watch& watch, std::int64_t upto) {
+template <typename Row>
+bool RecordFeed<Row>::CatchUp(Watch& watch, std::int64_t upto) {
     while (watch.cursor_ < upto) {
-        RecordQuery query;
-        query.container_id = watch.spec_.container_id;
-        query.after_id = watch.cursor_;
-        query.limit = config_.batch;
-        absl::StatusOr<std::vector<EstimateRecord>> rows = recorder_.store().List(query);
+        absl::StatusOr<std::vector<Row>> rows =
+            source_.after(watch.spec_.container_id, watch.cursor_, config_.batch);
         if (!rows.ok()) return true;  // the store is away: try again next round
-        for (const EstimateRecord& row : *rows) {
+        for (const Row& row : *rows) {
             if (row.id > upto) break;
             if (!watch.Offer(&row)) return false;
             watch.cursor_ = row.id;
@@ -131,13 +138,11 @@ bool EstimateFeed::CatchUp(Watch& watch, std::int64_t upto) {
     return true;
 }
 
-void EstimateFeed::DeliverNew(const std::vector<std::shared_ptr<Watch>>& watches) {
+template <typename Row>
+void RecordFeed<Row>::DeliverNew(const std::vector<std::shared_ptr<Watch>>& watches) {
     // What is new since the last round, every container at once.
-    std::vector<EstimateRecord> fresh;
-    RecordQuery query;
-    query.after_id = newest_;
-    query.limit = config_.batch;
-    if (auto rows = recorder_.store().List(query); rows.ok()) fresh = *std::move(rows);
+    std::vector<Row> fresh;
+    if (auto rows = source_.after("", newest_, config_.batch); rows.ok()) fresh = *std::move(rows);
     const std::int64_t before = newest_;
     if (!fresh.empty()) newest_ = fresh.back().id;
     for (const auto& watch : watches) {
@@ -148,7 +153,7 @@ void EstimateFeed::DeliverNew(const std::vector<std::shared_ptr<Watch>>& watches
             End(watch, absl::OkStatus());
             continue;
         }
-        for (const EstimateRecord& row : fresh) {
+        for (const Row& row : fresh) {
             if (row.id <= watch->cursor_) continue;
             if (!watch->Offer(&row)) break;
             watch->cursor_ = row.id;
@@ -165,7 +170,8 @@ void EstimateFeed::DeliverNew(const std::vector<std::shared_ptr<Watch>>& watches
     }
 }
 
-void EstimateFeed::Run() {
+template <typename Row>
+void RecordFeed<Row>::Run() {
     std::int64_t seen_local = 0;
     while (true) {
         const std::int64_t seen_before = seen_local;
@@ -188,7 +194,7 @@ void EstimateFeed::Run() {
             return;
         }
         if (watches.empty()) {  // nobody to hand records to: only where "now" is
-            if (seen_local > seen_before) {
+            if (seen_local > seen_before && std::is_same_v<Row, EstimateRecord>) {
                 newest_ = std::max(newest_, seen_local);  // this process committed it
             } else {
                 ReadNewestId();  // a poll: other replicas' records
@@ -197,6 +203,48 @@ void EstimateFeed::Run() {
         }
         DeliverNew(watches);
     }
+}
+
+template class RecordFeed<EstimateRecord>;
+template class RecordFeed<AlertRecord>;
+
+EstimateFeed::Source EstimateSource(RecordStore& store) {
+    EstimateFeed::Source source;
+    source.after = [&store](const std::string& container_id, std::int64_t after_id, int limit) {
+        RecordQuery query;
+        query.container_id = container_id;
+        query.after_id = after_id;
+        query.limit = limit;
+        return store.List(query);
+    };
+    source.newest = [&store]() -> std::optional<std::int64_t> {
+        RecordQuery newest;
+        newest.limit = 1;
+        newest.with_payload = false;
+        absl::StatusOr<std::vector<EstimateRecord>> rows = store.List(newest);
+        if (!rows.ok()) return std::nullopt;
+        return rows->empty() ? 0 : rows->front().id;
+    };
+    return source;
+}
+
+AlertFeed::Source AlertSource(RecordStore& store) {
+    AlertFeed::Source source;
+    source.after = [&store](const std::string& container_id, std::int64_t after_id, int limit) {
+        AlertQuery query;
+        query.container_id = container_id;
+        query.after_id = after_id;
+        query.limit = limit;
+        return store.ListAlerts(query);
+    };
+    source.newest = [&store]() -> std::optional<std::int64_t> {
+        AlertQuery newest;
+        newest.limit = 1;
+        absl::StatusOr<std::vector<AlertRecord>> rows = store.ListAlerts(newest);
+        if (!rows.ok()) return std::nullopt;
+        return rows->empty() ? 0 : rows->front().id;
+    };
+    return source;
 }
 
 }  // namespace soilvol::server

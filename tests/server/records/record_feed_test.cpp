@@ -1,4 +1,4 @@
-#include "server/records/estimate_feed.hpp"
+#include "server/records/record_feed.hpp"
 
 #include <gtest/gtest.h>
 
@@ -67,7 +67,7 @@ TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
     EstimateRecorder recorder(*store, {});
     ASSERT_TRUE(recorder.Record(Draft("a")).ok());  // before the watch: not delivered
     Inbox a, every;                                 // before the feed: it outlives their watches
-    EstimateFeed feed(recorder, {});
+    EstimateFeed feed(recorder, EstimateSource(*store), {});
     auto watch_a = feed.Start({"a", std::nullopt}, a.Deliver(), a.Ended());
     auto watch_all = feed.Start({"", std::nullopt}, every.Deliver(), every.Ended());
     ASSERT_TRUE(watch_a.ok() && watch_all.ok());
@@ -101,7 +101,7 @@ TEST_P(EstimateFeedTest, QuietWatchesGetHeartbeats) {
     config.poll = 20ms;
     config.heartbeat = 100ms;
     Inbox inbox;
-    EstimateFeed feed(recorder, config);
+    EstimateFeed feed(recorder, EstimateSource(*store), config);
     ASSERT_TRUE(feed.Start({"", std::nullopt}, inbox.Deliver(), inbox.Ended()).ok());
     std::this_thread::sleep_for(600ms);
     std::lock_guard<std::mutex> lock(inbox.mutex);
@@ -123,7 +123,7 @@ TEST_P(EstimateFeedTest, AResumedWatchCatchesUpThenGoesLiveAndSeesOtherReplicas)
     EstimateFeed::Config config;
     config.batch = 100;  // several catch-up pages
     Inbox inbox;
-    EstimateFeed feed(recorder, config);
+    EstimateFeed feed(recorder, EstimateSource(*store), config);
     const std::int64_t resume = earlier[29].id;
     ASSERT_TRUE(feed.Start({"c", resume}, inbox.Deliver(), inbox.Ended()).ok());
     std::vector<std::int64_t> expected;
@@ -151,7 +151,7 @@ TEST_P(EstimateFeedTest, SlowWatchesEndAndShutdownEndsTheRest) {
     {
         EstimateFeed::Config config;
         config.max_watches = 2;
-        EstimateFeed feed(recorder, config);
+        EstimateFeed feed(recorder, EstimateSource(*store), config);
         ASSERT_TRUE(
             feed.Start(
                     {"", 0}, [](const EstimateRecord*) { return false; }, slow_ended.Ended())
