@@ -1,15 +1,14 @@
 // soilvol alerts list|watch, soilvol webhooks list|deliveries.
-#include <chrono>
 #include <iostream>
 #include <memory>
 #include <string>
-#include <thread>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "client/commands.hpp"
 #include "client/response_printer.hpp"
 #include "client/table.hpp"
+#include "client/watch_loop.hpp"
 #include "google/protobuf/util/json_util.h"
 
 namespace soilvol::client {
@@ -80,26 +79,13 @@ int RunAlertWatch(const std::string& container, const std::string& after, int co
     v1::WatchAlertsRequest request;
     request.set_container_id(container);
     request.set_after_alert_id(after);
-    int printed = 0;
-    for (int attempt = 0;; ++attempt) {
-        const auto context = connection.NewOpenContext();
-        auto reader = connection.Soil().WatchAlerts(context.get(), request);
-        v1::Alert alert;
-        while (reader->Read(&alert)) {
-            PrintAlertLine(alert, global.json, std::cout);
-            request.set_after_alert_id(alert.alert_id());
-            if (count > 0 && ++printed >= count) {
-                context->TryCancel();
-                reader->Finish().IgnoreError();
-                return kExitOk;
-            }
-        }
-        const grpc::Status status = reader->Finish();
-        const bool resumable = status.error_code() == grpc::StatusCode::UNAVAILABLE ||
-                               status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
-        if (!resumable || attempt >= 20) return ReportRpcError(status);
-        std::this_thread::sleep_for(std::chrono::seconds(1));
-    }
+    return RunResumableWatch<v1::Alert>(
+        connection, request, count,
+        [](auto& soil, auto* context, const auto& r) { return soil.WatchAlerts(context, r); },
+        [&global](const v1::Alert& alert) { PrintAlertLine(alert, global.json, std::cout); },
+        [](v1::WatchAlertsRequest& r, const v1::Alert& alert) {
+            r.set_after_alert_id(alert.alert_id());
+        });
 }
 
 int RunWebhooks(const GlobalOptions& global) {

@@ -1,16 +1,15 @@
 #include <google/protobuf/util/time_util.h>
 
-#include <chrono>
 #include <iostream>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.hpp"
 #include "client/input_files.hpp"
 #include "client/response_printer.hpp"
+#include "client/watch_loop.hpp"
 
 namespace soilvol::client {
 namespace {
@@ -90,27 +89,15 @@ int RunWatch(const std::string& container, const std::string& after, int count,
     v1::WatchEstimatesRequest request;
     request.set_container_id(container);
     request.set_after_estimate_id(after);
-    int printed = 0;
-    for (int attempt = 0;; ++attempt) {
-        const auto context = connection.NewOpenContext();
-        auto reader = connection.Soil().WatchEstimates(context.get(), request);
-        v1::Estimate estimate;
-        while (reader->Read(&estimate)) {
+    return RunResumableWatch<v1::Estimate>(
+        connection, request, count,
+        [](auto& soil, auto* context, const auto& r) { return soil.WatchEstimates(context, r); },
+        [&global](const v1::Estimate& estimate) {
             PrintEstimateLine(estimate, global.json, std::cout);
-            request.set_after_estimate_id(estimate.estimate_id());
-            if (count > 0 && ++printed >= count) {
-                context->TryCancel();
-                reader->Finish().IgnoreError();
-                return kExitOk;
-            }
-        }
-        const grpc::Status status = reader->Finish();
-        // The server went away or asked to be left (UNAVAILABLE, RESOURCE_EXHAUSTED): resume.
-        const bool resumable = status.error_code() == grpc::StatusCode::UNAVAILABLE ||
-                               status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
-        if (!resumable || attempt >= 20) return ReportRpcError(status);
-        std::this_thread::sleep_for(std::chrono::seconds(1));
-    }
+        },
+        [](v1::WatchEstimatesRequest& r, const v1::Estimate& estimate) {
+            r.set_after_estimate_id(estimate.estimate_id());
+        });
 }
 
 }  // namespace

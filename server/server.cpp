@@ -8,6 +8,7 @@
 #include <mutex>
 #include <random>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
 #include "core/pipeline/parallelism.hpp"
@@ -279,6 +280,37 @@ absl::Status MakeGateway(ServerParts& p, const google::protobuf::ServiceDescript
     return absl::OkStatus();
 }
 
+/// soilvol_alerts_total{kind} (what this server raised: with its records, and its judge's) and
+/// soilvol_loads_closed_total{load_status} (the loads its judge closed or found closed).
+void AddAlertMetrics(ServerParts& p) {
+    EstimateRecorder* recorder = p.recorder.get();
+    SoilVolumeHandlers* handlers = p.handlers.get();
+    p.metrics.AddCounterProbe(
+        "soilvol_alerts_total", "Alerts this server raised, by kind", [recorder, handlers] {
+            std::array<std::uint64_t, 6> by_kind = recorder->stats().alerts;
+            by_kind[AlertRecord::kLoadOffTarget] += handlers->judge_figures().load_alerts;
+            std::vector<Metrics::ProbedValue> out;
+            for (int kind = 1; kind < static_cast<int>(by_kind.size()); ++kind) {
+                out.push_back({{{"kind", AlertKindLabel(kind)}},
+                               static_cast<double>(by_kind[static_cast<std::size_t>(kind)])});
+            }
+            return out;
+        });
+    p.metrics.AddCounterProbe(
+        "soilvol_loads_closed_total",
+        "Truck loads whose close this server judged, by the status of their total", [handlers] {
+            const auto closed = handlers->judge_figures().loads_closed;
+            std::vector<Metrics::ProbedValue> out;
+            for (int status = 1; status < static_cast<int>(closed.size()); ++status) {
+                std::string name = v1::LoadStatus_Name(static_cast<v1::LoadStatus>(status));
+                name = absl::AsciiStrToLower(name.substr(std::string("LOAD_STATUS_").size()));
+                out.push_back({{{"load_status", name}},
+                               static_cast<double>(closed[static_cast<std::size_t>(status)])});
+            }
+            return out;
+        });
+}
+
 /// What runs beside the calls: the judge of closed loads (every second) and the webhooks.
 void StartBackground(ServerParts& p) {
     if (p.recorder == nullptr) return;
@@ -290,6 +322,7 @@ void StartBackground(ServerParts& p) {
                      {{"error", judged.status().message()}});
         }
     });
+    AddAlertMetrics(p);
     if (p.webhooks.empty()) return;
     WebhookDispatcher::Config config;
     config.max_age = std::chrono::seconds(std::lround(p.options.webhook_max_age_hours * 3600.0));
@@ -297,6 +330,22 @@ void StartBackground(ServerParts& p) {
     config.holder = LeaseHolderName();
     p.webhook_dispatcher =
         std::make_unique<WebhookDispatcher>(*p.recorder, p.webhooks, std::move(config));
+    WebhookDispatcher* dispatcher = p.webhook_dispatcher.get();
+    p.metrics.AddCounterProbe(
+        "soilvol_webhook_deliveries_total",
+        "Attempts to post an alert to a webhook, by webhook and outcome", [dispatcher] {
+            std::vector<Metrics::ProbedValue> out;
+            for (const auto& [webhook, counts] : dispatcher->counts()) {
+                for (const auto& [outcome, n] :
+                     {std::pair<const char*, std::uint64_t>{"delivered", counts.delivered},
+                      {"failed", counts.failed},
+                      {"abandoned", counts.abandoned}}) {
+                    out.push_back(
+                        {{{"webhook", webhook}, {"outcome", outcome}}, static_cast<double>(n)});
+                }
+            }
+            return out;
+        });
 }
 
 /// Binds and starts gRPC, then REST; Unavailable naming the flag of an address not bound.

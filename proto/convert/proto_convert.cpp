@@ -468,4 +468,23 @@ absl::StatusOr<std::int64_t> TimestampMicros(const google::protobuf::Timestamp& 
     return google::protobuf::util::TimeUtil::TimestampToMicroseconds(time);
 }
 
+absl::Status TimeRangeMicros(const google::protobuf::Timestamp* start,
+                             const google::protobuf::Timestamp* end, std::int64_t* start_us,
+                             std::int64_t* end_us) {
+    if (start != nullptr) {
+        const absl::StatusOr<std::int64_t> micros = TimestampMicros(*start, "start_time");
+        if (!micros.ok()) return micros.status();
+        *start_us = *micros;
+    }
+    if (end != nullptr) {
+        const absl::StatusOr<std::int64_t> micros = TimestampMicros(*end, "end_time");
+        if (!micros.ok()) return micros.status();
+        *end_us = *micros;
+    }
+    if (*end_us <= *start_us) {
+        return absl::InvalidArgumentError("end_time: must be after start_time");
+    }
+    return absl::OkStatus();
+}
+
 }  // namespace soilvol::server

@@ -52,6 +52,12 @@ std::int64_t NowMicros();
 /// 1..9999 or with nanos out of range (InvalidArgument naming `field`).
 absl::StatusOr<std::int64_t> TimestampMicros(const google::protobuf::Timestamp& time,
                                              const char* field);
+/// A List's optional [start_time, end_time) (null: unset) in microseconds into `start_us` and
+/// `end_us`, which keep their values for an unset end; InvalidArgument naming the field, and for
+/// an end_time not after start_time.
+absl::Status TimeRangeMicros(const google::protobuf::Timestamp* start,
+                             const google::protobuf::Timestamp* end, std::int64_t* start_us,
+                             std::int64_t* end_us);
 
 /// The estimate's heightmap as a PNG colour map with its load centre (volume::RenderHeightmap),
 /// each cell `cell_px` pixels. FailedPrecondition when the estimate holds no heightmap,

@@ -2,15 +2,16 @@
 // Containers with their last load (fill gauge, status), live updates from
 // GET /v1/estimates:watch (Server-Sent Events read through fetch, so that a bearer token can go
 // with it), the selected container's heightmap, distribution and history, and an upload form;
-// the shift's totals and truck loads are shift.js's.
+// the shift's totals and truck loads are shift.js's, the alerts panel alerts.js's.
 
 import { startShift, shiftChanged } from "./shift.js";
+import { startAlerts } from "./alerts.js";
+import { streamEvents } from "./sse.js";
 
 const state = {
   containers: new Map(),   // id -> Container
   estimates: new Map(),    // id -> [Estimate] newest first (BASIC view)
   selected: null,
-  lastEventId: "",
   watchAbort: null,
 };
 
@@ -453,51 +454,15 @@ function setLive(on, text) {
   live.textContent = text;
 }
 
-async function watch() {
-  for (;;) {
-    const abort = new AbortController();
-    state.watchAbort = abort;
-    try {
-      const extra = { Accept: "text/event-stream" };
-      if (state.lastEventId) extra["Last-Event-ID"] = state.lastEventId;
-      const response = await fetch("/v1/estimates:watch", { headers: headers(extra), signal: abort.signal });
-      if (!response.ok) throw new Error(`watch: ${response.status}`);
-      setLive(true, "live");
-      const reader = response.body.pipeThrough(new TextDecoderStream()).getReader();
-      let buffer = "";
-      for (;;) {
-        const { value, done } = await reader.read();
-        if (done) break;
-        buffer += value;
-        let end;
-        while ((end = buffer.indexOf("\n\n")) >= 0) {
-          handleEvent(buffer.slice(0, end));
-          buffer = buffer.slice(end + 2);
-        }
-      }
-    } catch (error) {
-      if (abort.signal.aborted) return;
-    }
-    setLive(false, "reconnecting");
-    await new Promise((resolve) => setTimeout(resolve, 1000));
-  }
+function watch() {
+  if (state.watchAbort) state.watchAbort.abort();
+  state.watchAbort = streamEvents("/v1/estimates:watch", headers, handleEvent,
+                                  (on) => setLive(on, on ? "live" : "reconnecting"));
 }
 
-function handleEvent(block) {
-  let id = "", event = "message";
-  const data = [];
-  for (const line of block.split("\n")) {
-    if (line.startsWith(":")) continue;
-    const colon = line.indexOf(":");
-    const field = colon < 0 ? line : line.slice(0, colon);
-    const value = colon < 0 ? "" : line.slice(colon + 1).replace(/^ /, "");
-    if (field === "id") id = value;
-    else if (field === "event") event = value;
-    else if (field === "data") data.push(value);
-  }
-  if (event !== "estimate" || data.length === 0) return;
-  const estimate = JSON.parse(data.join("\n"));
-  if (id) state.lastEventId = id;
+function handleEvent({ event, data }) {
+  if (event !== "estimate") return;
+  const estimate = JSON.parse(data);
   addEstimate(estimate, true);
   shiftChanged();
   if (!state.containers.has(estimate.containerId)) {
@@ -571,12 +536,13 @@ function startZone() {
 function start() {
   startZone();
   startShift({ api, headers, timeText, fmt, $, showError });
+  startAlerts({ api, headers, timeText, $ });
   $("token-button").addEventListener("click", () => $("token-panel").classList.toggle("hidden"));
   $("token-save").addEventListener("click", () => {
     localStorage.setItem("soilvol.token", $("token-input").value.trim());
     $("token-panel").classList.add("hidden");
-    if (state.watchAbort) state.watchAbort.abort();
     refresh().then(() => watch());
+    startAlerts({ api, headers, timeText, $ });
   });
   const form = $("upload-form");
   form.addEventListener("submit", upload);

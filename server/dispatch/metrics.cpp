@@ -128,6 +128,29 @@ struct Metrics::Impl {
         return name;
     }
 
+    struct CounterProbe {
+        std::string name, help;
+        std::function<std::vector<Metrics::ProbedValue>()> read;
+    };
+    std::vector<CounterProbe> counter_probes;  // set before the first scrape
+
+    /// The probed counter families as they are now.
+    void AppendProbed(std::vector<prometheus::MetricFamily>& out) const {
+        for (const CounterProbe& probe : counter_probes) {
+            prometheus::MetricFamily family;
+            family.name = probe.name;
+            family.help = probe.help;
+            family.type = prometheus::MetricType::Counter;
+            for (const Metrics::ProbedValue& value : probe.read()) {
+                prometheus::ClientMetric metric;
+                for (const auto& [key, label] : value.labels) metric.label.push_back({key, label});
+                metric.counter.value = value.value;
+                family.metric.push_back(std::move(metric));
+            }
+            out.push_back(std::move(family));
+        }
+    }
+
     std::function<Metrics::RecordFigures()> records_probe;
     std::mutex records_mutex;             // one scrape at a time moves the counters
     Metrics::RecordFigures records_seen;  // what the counters hold
@@ -227,9 +250,15 @@ void Metrics::SetRecordsProbe(std::string store, std::function<RecordFigures()> 
     m.records_probe = std::move(probe);
 }
 
+void Metrics::AddCounterProbe(std::string name, std::string help,
+                              std::function<std::vector<ProbedValue>()> probe) {
+    impl_->counter_probes.push_back({std::move(name), std::move(help), std::move(probe)});
+}
+
 std::string Metrics::Serialize() const {
     impl_->ReadRecords();
     std::vector<prometheus::MetricFamily> families = impl_->registry->Collect();
+    impl_->AppendProbed(families);
     AppendProcessFamilies(ReadProcessStats(), families);
     return prometheus::TextSerializer().Serialize(families);
 }

@@ -6,6 +6,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 
@@ -51,6 +53,16 @@ class Metrics {
     /// store: "sqlite" or "postgresql"), soilvol_records_queued and soilvol_estimate_watches,
     /// from `probe` at each Serialize. Set once, before the first scrape.
     void SetRecordsProbe(std::string store, std::function<RecordFigures()> probe);
+
+    /// One value of a probed counter family, with its labels.
+    struct ProbedValue {
+        std::vector<std::pair<std::string, std::string>> labels;
+        double value = 0.0;
+    };
+    /// A counter family whose values another part of the server keeps (they only grow), read
+    /// from `probe` at each Serialize. Set before the first scrape.
+    void AddCounterProbe(std::string name, std::string help,
+                         std::function<std::vector<ProbedValue>()> probe);
 
     /// The text exposition format, with the process_* figures of this process (CPU seconds,
     /// resident and virtual memory, open and most file descriptors, start time) read now.

@@ -155,7 +155,8 @@ std::optional<Refusal> RefusalOf(const v1::AlertRules& rules, const std::string&
     alert.value = refusal.alert_after;
     alert.threshold = refusal.alert_after;
     alert.message = absl::StrCat(container_id, ": ", refusal.alert_after,
-                                 " scans refused in a row; the last: ", refused.message());
+                                 refusal.alert_after == 1 ? " scan" : " scans",
+                                 " refused in a row; the last: ", refused.message());
     return refusal;
 }
 

@@ -66,17 +66,10 @@ absl::Status SoilVolumeHandlers::ListAlerts(const v1::ListAlertsRequest& request
         return absl::InvalidArgumentError(absl::StrCat("kind: unknown value ", request.kind()));
     }
     query.kind = request.kind();
-    if (request.has_start_time()) {
-        SOILVOL_ASSIGN_OR_RETURN(query.start_time_us,
-                                 TimestampMicros(request.start_time(), "start_time"));
-    }
-    if (request.has_end_time()) {
-        SOILVOL_ASSIGN_OR_RETURN(query.end_time_us,
-                                 TimestampMicros(request.end_time(), "end_time"));
-    }
-    if (query.end_time_us <= query.start_time_us) {
-        return absl::InvalidArgumentError("end_time: must be after start_time");
-    }
+    SOILVOL_RETURN_IF_ERROR(
+        TimeRangeMicros(request.has_start_time() ? &request.start_time() : nullptr,
+                        request.has_end_time() ? &request.end_time() : nullptr,
+                        &query.start_time_us, &query.end_time_us));
     SOILVOL_ASSIGN_OR_RETURN(const int size, PageSizeOf(request.page_size()));
     SOILVOL_ASSIGN_OR_RETURN(query.before_id, ParseRecordPageToken(request.page_token()));
     query.limit = size + 1;  // one more tells whether there is a next page
@@ -186,9 +179,21 @@ absl::StatusOr<int> SoilVolumeHandlers::JudgeLoads(std::int64_t now_us) {
             alert = ToAlertRecord(*raised);
         }
         SOILVOL_ASSIGN_OR_RETURN(const bool mine, store->JudgeLoad(id, alert));
-        judged += mine ? 1 : 0;
+        if (!mine) continue;
+        ++judged;
+        std::lock_guard<std::mutex> lock(judge_mutex_);
+        const int status = load.assessment().status();
+        if (status >= 0 && status < static_cast<int>(judged_.loads_closed.size())) {
+            ++judged_.loads_closed[static_cast<std::size_t>(status)];
+        }
+        judged_.load_alerts += alert ? 1 : 0;
     }
     return judged;
+}
+
+SoilVolumeHandlers::JudgeFigures SoilVolumeHandlers::judge_figures() const {
+    std::lock_guard<std::mutex> lock(judge_mutex_);
+    return judged_;
 }
 
 void SoilVolumeHandlers::JudgeClosed() {

@@ -122,6 +122,18 @@ const char* LoadStatusLabel(volume::LoadStatus status) {
     return "loaded";
 }
 
+/// What an answered estimate adds to production.
+Measures MeasuresOf(const v1::EstimateVolumeResponse& response, const v1::Material& material) {
+    Measures measures;
+    measures.volume_m3 = response.volume_m3();
+    measures.bank_volume_m3 = response.load().bank_volume_m3();
+    if (response.has_mass_kg()) measures.mass_kg = response.mass_kg();
+    measures.fill_ratio = response.fill_ratio();
+    measures.load_status = response.load().status();
+    measures.material = material.name();
+    return measures;
+}
+
 }  // namespace
 
 absl::StatusOr<pipeline::VolumeEstimate> SoilVolumeHandlers::RunEstimate(
@@ -194,18 +206,12 @@ absl::Status SoilVolumeHandlers::EstimateVolume(const v1::EstimateVolumeRequest&
     record.measured = CallRecord::Measured{
         request.container_id(), LoadStatusLabel(load.status), response->load().bank_volume_m3(),
         response->has_mass_kg() ? std::optional<double>(response->mass_kg()) : std::nullopt};
-    Measures measures;
-    measures.volume_m3 = estimate.volume_m3;
-    measures.bank_volume_m3 = response->load().bank_volume_m3();
-    if (response->has_mass_kg()) measures.mass_kg = response->mass_kg();
-    measures.fill_ratio = response->fill_ratio();
-    measures.load_status = response->load().status();
-    measures.material = container->info.material().name();
     for (v1::Alert& alert :
          EstimateAlerts(RulesFor(&container->info, options_.alert_rules), *response, NowMicros())) {
         *response->add_alerts() = std::move(alert);
     }
-    RecordEstimate(request, response, std::move(load_link), std::move(measures), record);
+    RecordEstimate(request, response, std::move(load_link),
+                   MeasuresOf(*response, container->info.material()), record);
     if (request.omit_heightmap()) response->clear_heightmap();
     return absl::OkStatus();
 }

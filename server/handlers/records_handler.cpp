@@ -113,17 +113,10 @@ absl::Status SoilVolumeHandlers::ListEstimates(const v1::ListEstimatesRequest& r
     SOILVOL_ASSIGN_OR_RETURN(query.registration_id, RegistrationFilter(request));
     SOILVOL_ASSIGN_OR_RETURN(const int size, PageSizeOf(request.page_size()));
     SOILVOL_ASSIGN_OR_RETURN(query.before_id, ParseRecordPageToken(request.page_token()));
-    if (request.has_start_time()) {
-        SOILVOL_ASSIGN_OR_RETURN(query.start_time_us,
-                                 TimestampMicros(request.start_time(), "start_time"));
-    }
-    if (request.has_end_time()) {
-        SOILVOL_ASSIGN_OR_RETURN(query.end_time_us,
-                                 TimestampMicros(request.end_time(), "end_time"));
-    }
-    if (query.end_time_us <= query.start_time_us) {
-        return absl::InvalidArgumentError("end_time: must be after start_time");
-    }
+    SOILVOL_RETURN_IF_ERROR(
+        TimeRangeMicros(request.has_start_time() ? &request.start_time() : nullptr,
+                        request.has_end_time() ? &request.end_time() : nullptr,
+                        &query.start_time_us, &query.end_time_us));
     query.limit = size + 1;  // one more tells whether there is a next page
     SOILVOL_ASSIGN_OR_RETURN(std::vector<EstimateRecord> rows, recorder->store().List(query));
     const bool more = rows.size() > static_cast<std::size_t>(size);

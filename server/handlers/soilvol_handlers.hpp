@@ -1,7 +1,9 @@
 #pragma once
 
+#include <array>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -123,6 +125,13 @@ class SoilVolumeHandlers {
     /// LOAD_OFF_TARGET under its rules, once across replicas. CloseLoad and CreateLoad call it;
     /// the server's sweeper every second. How many this call judged.
     absl::StatusOr<int> JudgeLoads(std::int64_t now_us);
+    /// What this server's judge decided since the start: loads closed by status (LoadStatus
+    /// numbers), LOAD_OFF_TARGET alerts raised (for /metrics).
+    struct JudgeFigures {
+        std::array<std::uint64_t, 7> loads_closed{};
+        std::uint64_t load_alerts = 0;
+    };
+    JudgeFigures judge_figures() const;
     absl::Status GetServerInfo(const v1::GetServerInfoRequest& request, v1::ServerInfo* response,
                                CallRecord& record);
 
@@ -259,6 +268,8 @@ class SoilVolumeHandlers {
     EstimateRecorder* const recorder_;
     EstimateFeed* const feed_;
     AlertFeed* const alert_feed_;
+    mutable std::mutex judge_mutex_;
+    JudgeFigures judged_;
     const google::protobuf::Timestamp start_time_;
     mutable EntryCache<CalibrationEntry> calibrations_;
     mutable EntryCache<ContainerEntry> containers_;

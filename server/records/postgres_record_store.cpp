@@ -299,8 +299,7 @@ void PgCountRefusal(pqxx::work& work, const AlertSql& sql, EstimateRecord& recor
     const std::int64_t run =
         work.exec_params(sql.count_refusal, record.container_id)[0][0].as<std::int64_t>();
     if (run != record.refusal->alert_after) return;
-    AlertRecord alert = record.refusal->alert;
-    PgInsertAlert(work, sql, alert);
+    PgInsertAlert(work, sql, record.refusal->alert);
 }
 
 /// A refusal from inside a transaction (the transaction rolls back, the status is returned).
@@ -343,7 +342,9 @@ class PostgresRecordStore final : public RecordStore {
                     if (!record.rejected.ok()) continue;
                 }
                 const pqxx::binarystring payload(record.payload.data(), record.payload.size());
+                // A kept record ends its container's run of refusals, in the same round trip.
                 const pqxx::result id = work.exec_params(
+                    "WITH ended AS (DELETE FROM soilvol_alert_refusals WHERE container_id = $1) "
                     "INSERT INTO soilvol_estimates (container_id, create_time_us, request_id, "
                     "payload, registration_id, load_id, load_role) VALUES ($1, $2, $3, $4, $5, "
                     "$6, $7) RETURNING id",
@@ -351,7 +352,6 @@ class PostgresRecordStore final : public RecordStore {
                     record.registration_id, record.load ? record.load->load_id : std::string(),
                     record.load ? record.load->role : 0);
                 record.id = id[0][0].as<std::int64_t>();
-                work.exec_params(sql.end_refusals, record.container_id);
                 for (AlertRecord& alert : record.alerts) {
                     alert.estimate_id = record.id;
                     PgInsertAlert(work, sql, alert);

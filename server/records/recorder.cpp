@@ -101,6 +101,21 @@ void EstimateRecorder::Run() {
     }
 }
 
+namespace {
+
+/// The alerts Append kept for `record` (those it kept have ids).
+void CountAlerts(const EstimateRecord& record, std::array<std::uint64_t, 6>& by_kind) {
+    const auto count = [&by_kind](const AlertRecord& alert) {
+        if (alert.id != 0 && alert.kind > 0 && alert.kind < static_cast<int>(by_kind.size())) {
+            ++by_kind[static_cast<std::size_t>(alert.kind)];
+        }
+    };
+    for (const AlertRecord& alert : record.alerts) count(alert);
+    if (record.refusal) count(record.refusal->alert);
+}
+
+}  // namespace
+
 void EstimateRecorder::Commit(std::vector<Pending>& batch) {
     std::vector<EstimateRecord> records;
     records.reserve(batch.size());
@@ -113,7 +128,8 @@ void EstimateRecorder::Commit(std::vector<Pending>& batch) {
         committed_total_ += records.size();
         if (status.ok()) {
             for (const EstimateRecord& record : records) {
-                if (record.id == 0) continue;  // rejected by its load
+                CountAlerts(record, stats_.alerts);
+                if (record.id == 0) continue;  // rejected by its load, or a refusal
                 ++stats_.records;
                 newest_ = std::max(newest_, record.id);
             }

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -61,6 +62,8 @@ class EstimateRecorder {
     struct Stats {
         std::uint64_t records = 0, batches = 0, failures = 0, pruned = 0;
         std::size_t queued = 0;  ///< waiting for their commit now
+        /// Alerts committed with the records (an estimate's, a run of refusals'), by kind.
+        std::array<std::uint64_t, 6> alerts{};
     };
     Stats stats() const;
 

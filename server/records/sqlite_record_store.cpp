@@ -788,8 +788,7 @@ class SqliteRecordStore final : public RecordStore {
         SOILVOL_RETURN_IF_ERROR(count.Step("count a refusal").status());
         const std::int64_t run = count.Int(0);
         if (run != record.refusal->alert_after) return absl::OkStatus();
-        AlertRecord alert = record.refusal->alert;
-        return InsertAlert(alert);
+        return InsertAlert(record.refusal->alert);
     }
 
     /// A kept record: its alerts kept, its container's run of refusals over.

@@ -6,18 +6,12 @@ receiver written here (it checks the HMAC signature itself) that drops 20% of th
 restarts once gets every alert, never one under two keys, and while healthy within 1 s (p50);
 alerts raised while it is down reach it after the server is killed and started again."""
 import calendar
-import hashlib
-import hmac
 import http.client
-import http.server
 import json
 import os
-import random
-import socket
 import statistics
 import sys
 import tempfile
-import threading
 import time
 import unittest
 import uuid
@@ -25,12 +19,12 @@ import uuid
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
 from harness import Server, load_grpc, needs_own_server, wait_until  # noqa: E402
+from webhook_receiver import SECRET, Receiver  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 
 CODE = grpc.StatusCode
 EMPTY = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
-SECRET = b"receiver-secret-0123456789"
 
 
 def postgres_url():
@@ -40,84 +34,6 @@ def postgres_url():
 
 def scan(fill_m, seed):
     return pb.Scan(cloud=pb.CloudScan(data=box_scene.encode_ply(box_scene.box_scan(fill_m, seed=seed))))
-
-
-def verify(header, body, now_s, tolerance_s=300):
-    """The Soilvol-Signature check a receiver makes: t=<unix s>,v1=<hex HMAC-SHA256>."""
-    fields = dict(part.split("=", 1) for part in header.split(",") if "=" in part)
-    if abs(now_s - int(fields.get("t", "0"))) > tolerance_s:
-        return False
-    expected = hmac.new(SECRET, fields["t"].encode() + b"." + body, hashlib.sha256).hexdigest()
-    return hmac.compare_digest(expected, fields.get("v1", ""))
-
-
-class Receiver:
-    """A webhook endpoint on a fixed port that drops `drop` of the requests (half by closing
-    the connection unanswered, half with 503) and keeps what it accepted."""
-
-    def __init__(self, drop=0.2, seed=7):
-        self.drop = drop
-        self.random = random.Random(seed)
-        self.lock = threading.Lock()
-        self.accepted = []   # (alert_id, key, attempt, received unix s, alert)
-        self.requests = 0
-        self.bad_signatures = 0
-        probe = socket.socket()
-        probe.bind(("127.0.0.1", 0))
-        self.port = probe.getsockname()[1]
-        probe.close()
-        self.httpd = None
-
-    def start(self):
-        receiver = self
-
-        class Handler(http.server.BaseHTTPRequestHandler):
-            def log_message(self, *args):
-                pass
-
-            def do_POST(self):
-                body = self.rfile.read(int(self.headers.get("Content-Length", "0")))
-                now = time.time()
-                with receiver.lock:
-                    receiver.requests += 1
-                    roll = receiver.random.random()
-                if not verify(self.headers.get("Soilvol-Signature", ""), body, int(now)):
-                    with receiver.lock:
-                        receiver.bad_signatures += 1
-                    self.send_response(401)
-                    self.end_headers()
-                    return
-                if roll < receiver.drop / 2:
-                    self.close_connection = True
-                    self.connection.shutdown(socket.SHUT_RDWR)  # no answer at all
-                    return
-                if roll < receiver.drop:
-                    self.send_response(503)
-                    self.end_headers()
-                    return
-                alert = json.loads(body)
-                with receiver.lock:
-                    receiver.accepted.append((alert["alertId"], self.headers["Idempotency-Key"],
-                                              int(self.headers["Soilvol-Delivery-Attempt"]), now,
-                                              alert))
-                self.send_response(204)
-                self.end_headers()
-
-        self.httpd = http.server.ThreadingHTTPServer(("127.0.0.1", self.port), Handler)
-        self.httpd.allow_reuse_address = True
-        threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
-        return self
-
-    def stop(self):
-        self.httpd.shutdown()
-        self.httpd.server_close()
-
-    def keys_by_alert(self):
-        with self.lock:
-            out = {}
-            for alert_id, key, _, _, _ in self.accepted:
-                out.setdefault(alert_id, set()).add(key)
-            return out
 
 
 class AlertsContract:

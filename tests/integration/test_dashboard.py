@@ -321,8 +321,9 @@ class Dashboard(unittest.TestCase):
 
     def test_the_shift_its_loads_and_downloads_at_three_widths(self):
         """The shift's strip (its totals as GetProduction has them), its truck loads with their
-        passes against the target and the body scan's reconciliation, and the CSV downloads,
-        at 1280, 900 and 420 px."""
+        passes against the target and the body scan's reconciliation, the alerts panel (an
+        alert raised while the page is open appears), and the CSV downloads, at 1280, 900 and
+        420 px."""
         with Server(args=["--workers", "2", "--site-time-zone", "Europe/Berlin"]) as server:
             self.assertEqual(register(server, "bucket-1", "Bucket 1", 0.5)[0], 200)
             self.assertEqual(register(server, "body-1", "Body 1", 0.25)[0], 200)
@@ -350,6 +351,13 @@ class Dashboard(unittest.TestCase):
                     self.assertTrue(browser.wait_for(
                         "document.querySelectorAll('[data-load-id=\"truck-7-load\"] .pass')"
                         ".length === 2", 10), browser.errors())
+                    if width == 1280:  # an alert raised while the page is open shows up live
+                        self.raise_refusal_alert(server)
+                    self.assertTrue(browser.wait_for(
+                        "document.querySelectorAll('#alerts .alert-refused-scans').length === 1",
+                        10), browser.errors())
+                    self.assertIn("bucket-1: 1 scan refused in a row", browser.evaluate(
+                        "document.querySelector('#alerts .alert-refused-scans').textContent"))
                     # The strip: the shift's passes (the body scan is no pass), its volume.
                     self.assertEqual(browser.evaluate(
                         "document.getElementById('shift-strip').dataset.passes"), "2")
@@ -389,6 +397,20 @@ class Dashboard(unittest.TestCase):
                 self.assertTrue(lines[1].startswith("truck-7-load,truck-7,body-1,Truck 7,"))
             finally:
                 browser.close()
+
+    @staticmethod
+    def raise_refusal_alert(server):
+        """bucket-1 alerts at its first refused scan; a scan contradicting its given pose is
+        refused (FAILED_PRECONDITION)."""
+        status, answer = server.rest("PATCH", "/v1/containers/bucket-1?updateMask=alert_rules",
+                                     {"alertRules": {"refusedScansInARow": 1}})
+        assert status == 200, answer
+        scan = box_scene.encode_ply(box_scene.box_scan(0.05, seed=80))
+        status, answer = server.rest("POST", "/v1/containers/bucket-1:estimate", {
+            "scan": cloud_scan(scan), "containerPose": {
+                "pose": {"positionM": {"x": 0.12}, "orientation": {"w": 1}},
+                "positionSigmaM": 0.01, "orientationSigmaDeg": 0.5}})
+        assert status == 400 and answer["details"][0]["reason"] == "FAILED_PRECONDITION", answer
 
     def test_with_token_auth(self):
         folder = tempfile.mkdtemp(prefix="soilvol-dash-auth-")

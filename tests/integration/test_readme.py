@@ -6,8 +6,8 @@ The blocks run as a reader runs them beside `scripts/run.sh`: in a scratch folde
 to every top-level entry of the repository (so `tokens` and other files a recipe writes stay
 there) and `build` linked to the build under test, with a server started as run.sh starts it
 (`soilvol demo --keep` registers demo-paper first). Only addresses and /tmp are substituted:
-`localhost:8080` and `localhost:50051` become the server's ports, the secure example's 8443 and
-50443 free ones, `/tmp/` the scratch folder's `tmp/`. On PATH first: the npm tools (as the README
+`localhost:8080` and `localhost:50051` become the server's ports, the second servers' 8443,
+50443, 8444, 50444 and the webhook receiver's 9000 free ones, `/tmp/` the scratch folder's `tmp/`. On PATH first: the npm tools (as the README
 says to export) and a `curl` that adds --fail-with-body, so that an HTTP error fails the recipe."""
 import os
 import re
@@ -80,7 +80,7 @@ class Readme(unittest.TestCase):
             f.write(f"#!/bin/sh\nexec {shutil.which('curl')} --fail-with-body \"$@\"\n")
         os.chmod(os.path.join(cls.dir, "bin", "curl"), 0o755)
         cls.server = Server(args=["--workers", "2"]).start()
-        cls.ports = {"8443": free_port(), "50443": free_port()}
+        cls.ports = {port: free_port() for port in ("8443", "50443", "8444", "50444", "9000")}
         cls.env = dict(os.environ, SOILVOL_SERVER=cls.server.grpc_target,
                        PATH=os.pathsep.join([os.path.join(cls.dir, "bin"),
                                              os.path.join(TOOLS, "node_modules", ".bin"),

@@ -48,6 +48,28 @@ TEST(MetricsTest, EstimatesAreCountedPerContainerWithABoundedLabelSet) {
     EXPECT_EQ(text.find("bin-3"), std::string::npos);
 }
 
+TEST(MetricsTest, AProbedCounterFamilyIsReadAtEachScrape) {
+    Metrics metrics;
+    double delivered = 3.0;
+    metrics.AddCounterProbe("soilvol_webhook_deliveries_total", "Attempts", [&delivered] {
+        return std::vector<Metrics::ProbedValue>{
+            {{{"webhook", "fleet"}, {"outcome", "delivered"}}, delivered},
+            {{{"webhook", "fleet"}, {"outcome", "failed"}}, 1.0}};
+    });
+    std::string text = metrics.Serialize();
+    EXPECT_NE(text.find("# TYPE soilvol_webhook_deliveries_total counter"), std::string::npos);
+    EXPECT_EQ(
+        Value(text, R"(soilvol_webhook_deliveries_total{webhook="fleet",outcome="delivered"})"),
+        3.0);
+    delivered = 5.0;
+    text = metrics.Serialize();
+    EXPECT_EQ(
+        Value(text, R"(soilvol_webhook_deliveries_total{webhook="fleet",outcome="delivered"})"),
+        5.0);
+    EXPECT_EQ(Value(text, R"(soilvol_webhook_deliveries_total{webhook="fleet",outcome="failed"})"),
+              1.0);
+}
+
 TEST(MetricsTest, TheScrapeHoldsTheProcessFigures) {
     const std::string text = Metrics().Serialize();
     for (const char* name : {"process_cpu_seconds_total", "process_resident_memory_bytes",
