@@ -86,6 +86,9 @@ AlertSql::AlertSql(const std::string& prefix, bool sqlite) : prefix_(prefix), sq
     save_webhook =
         Sql("UPDATE @webhooks SET cursor_id = $3, last_delivery_us = $4, failing_attempts = $5, "
             "last_error = $6, next_attempt_us = $7 WHERE webhook_id = $1 AND holder = $2");
+    release_webhook = Sql(
+        "UPDATE @webhooks SET holder = '', lease_until_us = 0 WHERE webhook_id = $1 AND holder = "
+        "$2");
     insert_delivery =
         Sql("INSERT INTO @webhook_deliveries (webhook_id, alert_id, attempt, time_us, outcome, "
             "http_status, error, latency_ms, delay_ms) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9) "

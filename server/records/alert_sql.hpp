@@ -20,6 +20,7 @@ struct AlertSql {
     std::string create_webhook;    ///< $1 webhook_id
     std::string lease_webhook;     ///< $1 webhook_id, $2 holder, $3 now, $4 lease until
     std::string save_webhook;      ///< $1 id, $2 holder, $3 cursor .. $7 next attempt
+    std::string release_webhook;   ///< $1 webhook_id, $2 holder
     std::string insert_delivery;   ///< $1 webhook_id .. $9 delay_ms; RETURNING id
     std::string webhook_state;     ///< $1 webhook_id
     std::string list_deliveries;   ///< $1 webhook_id or '', $2 alert_id or 0, $3 before, $4 limit

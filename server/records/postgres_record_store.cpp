@@ -637,6 +637,12 @@ class PostgresRecordStore final : public RecordStore {
         });
     }
 
+    absl::Status ReleaseWebhook(const std::string& webhook_id, const std::string& holder) override {
+        return Run("release a webhook", [&](pqxx::work& work) {
+            work.exec_params(sql_.release_webhook, webhook_id, holder);
+        });
+    }
+
     absl::StatusOr<std::vector<WebhookState>> WebhookStates(
         const std::vector<std::string>& webhook_ids) override {
         std::vector<WebhookState> out;

@@ -143,6 +143,10 @@ class RecordStore {
     /// `holder` still holds the lease; Aborted when it lost it (another replica sends now).
     virtual absl::Status SaveWebhook(const std::string& holder, const WebhookState& state,
                                      DeliveryRecord* attempt) = 0;
+    /// Gives up `holder`'s lease of the webhook (a replica shutting down), so that another takes
+    /// it over at once instead of when it lapses; nothing when another holds it.
+    virtual absl::Status ReleaseWebhook(const std::string& webhook_id,
+                                        const std::string& holder) = 0;
     /// The state of each of these webhooks that has one, with its pending alerts.
     virtual absl::StatusOr<std::vector<WebhookState>> WebhookStates(
         const std::vector<std::string>& webhook_ids) = 0;

@@ -677,6 +677,15 @@ class SqliteRecordStore final : public RecordStore {
         });
     }
 
+    absl::Status ReleaseWebhook(const std::string& webhook_id, const std::string& holder) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement release(db_, sql_.release_webhook);
+        SOILVOL_RETURN_IF_ERROR(release.Prepared("release a webhook"));
+        release.Bind(1, webhook_id);
+        release.Bind(2, holder);
+        return release.Step("release a webhook").status();
+    }
+
     absl::StatusOr<std::vector<WebhookState>> WebhookStates(
         const std::vector<std::string>& webhook_ids) override {
         std::lock_guard<std::mutex> lock(mutex_);

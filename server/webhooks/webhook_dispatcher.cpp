@@ -97,17 +97,21 @@ void WebhookDispatcher::Run(std::size_t index) {
     const WebhookTarget& target = targets_[index];
     std::int64_t seen = 0;
     while (true) {
+        bool stopping = false;
         {
             std::lock_guard<std::mutex> lock(mutex_);
-            if (stopping_) return;
+            stopping = stopping_;
         }
+        if (stopping) break;
         const std::optional<std::chrono::milliseconds> wait = Step(target);
         if (!wait) {
             seen = recorder_.WaitForNewer(seen, config_.poll);  // a commit here, or the poll
         } else if (wait->count() > 0 && !Sleep(*wait)) {
-            return;
+            break;
         }
     }
+    // Another replica takes over now rather than when the lease lapses (a rolling restart).
+    recorder_.store().ReleaseWebhook(target.config.webhook_id(), config_.holder).IgnoreError();
 }
 
 std::optional<std::chrono::milliseconds> WebhookDispatcher::Step(const WebhookTarget& target) {

@@ -45,7 +45,7 @@ class WebhookDispatcher {
     WebhookDispatcher(const WebhookDispatcher&) = delete;
     WebhookDispatcher& operator=(const WebhookDispatcher&) = delete;
 
-    /// Stops every thread (after the post in flight, if any).
+    /// Stops every thread (after the post in flight, if any), each giving up its lease.
     void Shutdown();
 
     /// Attempts by webhook and outcome since the start (for /metrics).

@@ -204,6 +204,13 @@ TEST_P(AlertStoreTest, AWebhookLeaseIsOneHoldersAndItsPositionStartsAtTheNewestA
     EXPECT_EQ((*b)->cursor, after[0].alerts[0].id);
     EXPECT_EQ((*b)->last_delivery_us, 32 * kOneSecond);
     EXPECT_TRUE(absl::IsAborted(store->SaveWebhook("replica-a", state, nullptr)));
+    // b shuts down: its lease goes at once, and a takes over long before it would have lapsed.
+    EXPECT_TRUE(store->ReleaseWebhook("fleet", "replica-a").ok());  // not a's: nothing
+    EXPECT_FALSE(
+        store->LeaseWebhook("fleet", "replica-a", 62 * kOneSecond, 92 * kOneSecond)->has_value());
+    ASSERT_TRUE(store->ReleaseWebhook("fleet", "replica-b").ok());
+    EXPECT_TRUE(
+        store->LeaseWebhook("fleet", "replica-a", 63 * kOneSecond, 93 * kOneSecond)->has_value());
 
     auto states = store->WebhookStates({"fleet", "never-leased"});
     ASSERT_TRUE(states.ok());

@@ -185,6 +185,9 @@ class DownStore final : public RecordStore {
     absl::Status SaveWebhook(const std::string&, const WebhookState&, DeliveryRecord*) override {
         return absl::UnavailableError("connection refused");
     }
+    absl::Status ReleaseWebhook(const std::string&, const std::string&) override {
+        return absl::UnavailableError("connection refused");
+    }
     absl::StatusOr<std::vector<WebhookState>> WebhookStates(
         const std::vector<std::string>&) override {
         return absl::UnavailableError("connection refused");
