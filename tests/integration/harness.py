@@ -245,6 +245,27 @@ def needs_own_server(item):
     return unittest.skipIf(EXTERNAL, "needs a server process of its own (external mode)")(item)
 
 
+def postgres_url():
+    """The test PostgreSQL server's database "postgres" ($SOILVOL_TEST_POSTGRES_URL, a libpq URI
+    pattern with {db}; ctest's fixture starts the server), or "" without one."""
+    pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
+    return pattern.replace("{db}", "postgres") if pattern else ""
+
+
+def needs_postgres(item):
+    """Skips a test or class without a test PostgreSQL server, except under CI=true (where its
+    records_args then fails: CI must run both databases)."""
+    return unittest.skipIf(not postgres_url() and os.environ.get("CI") != "true",
+                           "no PostgreSQL ($SOILVOL_TEST_POSTGRES_URL)")(item)
+
+
+def postgres_records_args():
+    """The server flags of a test class's PostgreSQL records."""
+    if not postgres_url():
+        raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
+    return ["--records-url", postgres_url()]
+
+
 def b64(data):
     return base64.b64encode(data).decode()
 

@@ -18,7 +18,8 @@ import uuid
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, load_grpc, needs_own_server, wait_until  # noqa: E402
+from harness import (Server, load_grpc, needs_own_server, needs_postgres,
+                     postgres_records_args, wait_until)  # noqa: E402
 from webhook_receiver import SECRET, Receiver  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
@@ -26,10 +27,6 @@ grpc, pb, pb_grpc = load_grpc()
 CODE = grpc.StatusCode
 EMPTY = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
 
-
-def postgres_url():
-    pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
-    return pattern.replace("{db}", "postgres") if pattern else ""
 
 
 def scan(fill_m, seed):
@@ -244,14 +241,9 @@ class SqliteAlerts(AlertsContract, unittest.TestCase):
 
 
 @needs_own_server
-@unittest.skipIf(not postgres_url() and os.environ.get("CI") != "true",
-                 "no PostgreSQL ($SOILVOL_TEST_POSTGRES_URL)")
+@needs_postgres
 class PostgresAlerts(AlertsContract, unittest.TestCase):
-    @classmethod
-    def records_args(cls):
-        if not postgres_url():
-            raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
-        return ["--records-url", postgres_url()]
+    records_args = staticmethod(postgres_records_args)
 
 
 if __name__ == "__main__":

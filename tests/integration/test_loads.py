@@ -14,7 +14,8 @@ import uuid
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, load_grpc, needs_own_server, write_file  # noqa: E402
+from harness import (Server, load_grpc, needs_own_server, needs_postgres,
+                     postgres_records_args, write_file)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 
@@ -23,10 +24,6 @@ EMPTY = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
 IDLE_S = 4.0
 CLI = os.environ.get("SOILVOL_CLI_BIN", "")
 
-
-def postgres_url():
-    pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
-    return pattern.replace("{db}", "postgres") if pattern else ""
 
 
 def fill_scan(fill_m, seed):
@@ -261,14 +258,9 @@ class SqliteLoads(LoadsContract, unittest.TestCase):
 
 
 @needs_own_server
-@unittest.skipIf(not postgres_url() and os.environ.get("CI") != "true",
-                 "no PostgreSQL ($SOILVOL_TEST_POSTGRES_URL)")
+@needs_postgres
 class PostgresLoads(LoadsContract, unittest.TestCase):
-    @classmethod
-    def records_args(cls):
-        if not postgres_url():
-            raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
-        return ["--records-url", postgres_url()]
+    records_args = staticmethod(postgres_records_args)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,8 @@ from collections import defaultdict
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, load_grpc, needs_own_server  # noqa: E402
+from harness import (Server, load_grpc, needs_own_server, needs_postgres,
+                     postgres_records_args)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 from google.protobuf import timestamp_pb2  # noqa: E402
@@ -19,10 +20,6 @@ from google.protobuf import timestamp_pb2  # noqa: E402
 CODE = grpc.StatusCode
 EMPTY = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
 
-
-def postgres_url():
-    pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
-    return pattern.replace("{db}", "postgres") if pattern else ""
 
 
 def scan(fill_m, seed):
@@ -252,14 +249,9 @@ class SqliteProduction(ProductionContract, unittest.TestCase):
 
 
 @needs_own_server
-@unittest.skipIf(not postgres_url() and os.environ.get("CI") != "true",
-                 "no PostgreSQL ($SOILVOL_TEST_POSTGRES_URL)")
+@needs_postgres
 class PostgresProduction(ProductionContract, unittest.TestCase):
-    @classmethod
-    def records_args(cls):
-        if not postgres_url():
-            raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
-        return ["--records-url", postgres_url()]
+    records_args = staticmethod(postgres_records_args)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,8 @@ import uuid
 
 sys.path.insert(0, os.path.dirname(__file__))
 import box_scene  # noqa: E402
-from harness import Server, load_grpc, needs_own_server, server_metric  # noqa: E402
+from harness import (Server, load_grpc, needs_own_server, needs_postgres,
+                     postgres_records_args, postgres_url, server_metric)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 from google.protobuf import field_mask_pb2, timestamp_pb2  # noqa: E402
@@ -29,10 +30,6 @@ EMPTY = box_scene.encode_ply(box_scene.box_scan(0.0, seed=1))
 def cloud(data):
     return pb.Scan(cloud=pb.CloudScan(data=data))
 
-
-def postgres_url():
-    pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
-    return pattern.replace("{db}", "postgres") if pattern else ""
 
 
 class SseReader:
@@ -424,14 +421,9 @@ class SqliteRecords(RecordsContract, unittest.TestCase):
 
 
 @needs_own_server
-@unittest.skipIf(not postgres_url() and os.environ.get("CI") != "true",
-                 "no PostgreSQL ($SOILVOL_TEST_POSTGRES_URL)")
+@needs_postgres
 class PostgresRecords(RecordsContract, unittest.TestCase):
-    @classmethod
-    def records_args(cls):
-        if not postgres_url():
-            raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
-        return ["--records-url", postgres_url()]
+    records_args = staticmethod(postgres_records_args)
 
     @staticmethod
     def store_kind():

@@ -14,16 +14,13 @@ import unittest
 import uuid
 
 sys.path.insert(0, os.path.dirname(__file__))
-from harness import Server, load_grpc, needs_own_server  # noqa: E402
+from harness import (Server, load_grpc, needs_own_server, needs_postgres,
+                     postgres_records_args)  # noqa: E402
 
 grpc, pb, pb_grpc = load_grpc()
 CLI = os.environ.get("SOILVOL_CLI_BIN", "")
 TRUCKS = 20
 
-
-def postgres_url():
-    pattern = os.environ.get("SOILVOL_TEST_POSTGRES_URL", "")
-    return pattern.replace("{db}", "postgres") if pattern else ""
 
 
 class ShiftContract:
@@ -82,13 +79,9 @@ class SqliteShift(ShiftContract, unittest.TestCase):
 
 @needs_own_server
 @unittest.skipUnless(CLI, "needs the soilvol CLI ($SOILVOL_CLI_BIN)")
-@unittest.skipIf(not postgres_url() and os.environ.get("CI") != "true",
-                 "no PostgreSQL ($SOILVOL_TEST_POSTGRES_URL)")
+@needs_postgres
 class PostgresShift(ShiftContract, unittest.TestCase):
-    def records_args(self):
-        if not postgres_url():
-            raise AssertionError("CI=true but SOILVOL_TEST_POSTGRES_URL is not set")
-        return ["--records-url", postgres_url()]
+    records_args = staticmethod(postgres_records_args)
 
 
 if __name__ == "__main__":
