@@ -429,8 +429,6 @@ void Server::Shutdown() {
     // that the transports need not wait for them.
     if (p.feed != nullptr) p.feed->Shutdown();
     if (p.alert_feed != nullptr) p.alert_feed->Shutdown();
-    p.load_judge.reset();
-    if (p.webhook_dispatcher != nullptr) p.webhook_dispatcher->Shutdown();
     p.grpc_server->Shutdown(wall_deadline);
     const auto left = std::max(Clock::duration::zero(), deadline - Clock::now());
     Dispatcher* dispatcher = p.dispatcher.get();
@@ -441,6 +439,10 @@ void Server::Shutdown() {
     // while the transports and the dispatcher are there.
     if (p.recorder != nullptr) p.recorder->Flush();
     p.gateway->Stop();
+    // No call waits on these: they stop after the transports (a post in flight may take its
+    // timeout), before the records close.
+    p.load_judge.reset();
+    if (p.webhook_dispatcher != nullptr) p.webhook_dispatcher->Shutdown();
     LogEvent(drained ? LogLevel::kInfo : LogLevel::kWarn, "stopped",
              {{"drained", drained ? "yes" : "no, queued calls were refused"}});
     {

@@ -409,13 +409,26 @@ class GracefulShutdown(unittest.TestCase):
             server.proc.send_signal(signal.SIGTERM)
             self.assertTrue(wait_until(lambda: any("shutting down" in line for line in server.log),
                                        5, 0.01))
-            time.sleep(0.05)
-            late = client.stub.EstimateVolume.future(request, timeout=60)
+            # New calls are refused once the transport stops taking them, within moments of the
+            # signal; one that raced in before that is served like the others.
+            def unavailable(future):
+                return (future.done() and future.exception() is not None and
+                        future.exception().code() == CODE.UNAVAILABLE)
+
+            late, refused = [], None
+            until = time.monotonic() + 2.0
+            while refused is None and time.monotonic() < until:
+                time.sleep(0.05)
+                late.append(client.stub.EstimateVolume.future(request, timeout=60))
+                time.sleep(0.01)
+                refused = next((f for f in late if unavailable(f)), None)
             for future in futures:
                 self.assertLess(volume_error(future.result().volume_m3, 0.2), MAX_ERROR_M3)
-            with self.assertRaises(grpc.RpcError) as ctx:
-                late.result()
-            self.assertEqual(ctx.exception.code(), CODE.UNAVAILABLE)
+            self.assertIsNotNone(refused, "no call was refused UNAVAILABLE within 2 s of SIGTERM")
+            for future in late:  # served, refused as the server stops, or queue full
+                if future.exception() is not None:
+                    self.assertIn(future.exception().code(),
+                                  (CODE.UNAVAILABLE, CODE.RESOURCE_EXHAUSTED))
             self.assertEqual(server.proc.wait(grace_s + 2), 0)
             self.assertLess(time.monotonic() - sent, grace_s)
             client.close()
