@@ -68,6 +68,17 @@ double TrueEmptyAt(const sim::ContainerGeometry& geometry, const Pose& T_sim_mod
     return geometry.InnerSurfaceZ(p.x(), p.y()) - p.z();
 }
 
+}  // namespace
+
+double TrueEmptyCell(const volume::Grid& grid, const Polygon2d& opening, std::size_t k,
+                     const sim::ContainerGeometry& geometry, const Pose& T_sim_model) {
+    return CellMean(grid, opening, k, [&](const Eigen::Vector2d& xy) {
+        return TrueEmptyAt(geometry, T_sim_model, xy);
+    });
+}
+
+namespace {
+
 // The exact empty surface on any grid of the model frame, cell means.
 volume::EmptySide TrueEmpty(const sim::ContainerGeometry& geometry, const Polygon2d& opening,
                             const Pose& T_sim_model) {
@@ -83,9 +94,7 @@ volume::EmptySide TrueEmpty(const sim::ContainerGeometry& geometry, const Polygo
                 out->unobserved_sigma_m.assign(n, 0.0);
                 for (std::size_t k = 0; k < n; ++k) {
                     if (grid.weight[k] <= 0.0) continue;
-                    out->map.height[k] = CellMean(grid, opening, k, [&](const Eigen::Vector2d& xy) {
-                        return TrueEmptyAt(geometry, T_sim_model, xy);
-                    });
+                    out->map.height[k] = TrueEmptyCell(grid, opening, k, geometry, T_sim_model);
                     out->map.support[k] = 1;
                     out->map.observed[k] = 1.0;
                     out->area_m2 += grid.weight[k];

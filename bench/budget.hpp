@@ -1,9 +1,20 @@
 #pragma once
 
+#include <cstddef>
 #include <ostream>
 #include <string>
 
+#include "core/common/polygon.hpp"
+#include "core/common/types.hpp"
+#include "core/sim/scene.hpp"
+#include "core/volume/grid.hpp"
+
 namespace soilvol::bench {
+
+/// The simulator's inner surface over cell k of a grid of the model frame: its mean over the
+/// cell's part inside the opening, as a grid holds a surface [m, model frame].
+double TrueEmptyCell(const volume::Grid& grid, const Polygon2d& opening, std::size_t k,
+                     const sim::ContainerGeometry& geometry, const Pose& T_sim_model);
 
 /// The error budget: every estimate of the families table (each family, sensor and
 /// registration kind) split by substituting the simulator's truth for one stage at a time:

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/strings/str_format.h"
+#include "bench/budget.hpp"
 #include "bench/trial.hpp"
 #include "core/align/icp.hpp"
 #include "core/cloud/preprocess.hpp"
@@ -475,31 +476,39 @@ int FamilyCase(const FamilyCaseOptions& options, std::ostream& out) {
     }
     // Per-cell error of the soil height [cm] against the truth: rows from +y down.
     const volume::Grid& g = e->volume.grid;
-    const auto empty_surface = volume::EstimateEmptySurface(g, reg.model->cavity, {});
+    const auto empty_surface = model::ModelEmptySurface(*reg.model, g, {});
     const auto empty = empty_surface.ok() ? absl::StatusOr<volume::SurfaceMap>(empty_surface->map)
                                           : empty_surface.status();
     if (empty.ok()) {
-        // Volume errors of the empty surface [L]: over the cells it measured, and the rest.
+        // Volume errors of the empty surface [L] against the true cell means: over the cells
+        // it measured, and the rest.
+        std::vector<double> truth(g.weight.size(), 0.0);
+        for (std::size_t k = 0; k < g.weight.size(); ++k) {
+            if (g.weight[k] > 0.0) {
+                truth[k] =
+                    TrueEmptyCell(g, reg.model->opening.polygon, k, geometry, reg.sim_to_model);
+            }
+        }
         double measured_l = 0.0, unmeasured_l = 0.0;
         for (std::size_t k = 0; k < g.weight.size(); ++k) {
             if (g.weight[k] <= 0.0) continue;
-            const double err =
-                g.weight[k] * kLitre *
-                (empty->height[k] - geometry.InnerSurfaceZ(g.anchor[k].x(), g.anchor[k].y()));
+            const double err = g.weight[k] * kLitre * (empty->height[k] - truth[k]);
             (empty->support[k] > 0 ? measured_l : unmeasured_l) += err;
         }
+        std::size_t cavity_points = 0;
+        for (const WeightedCloud& c : reg.model->cavity) cavity_points += c.points.size();
         out << absl::StrFormat(
-            "empty surface volume error: measured cells %+.1f L, the others %+.1f L\n", measured_l,
-            unmeasured_l);
+            "empty surface volume error: measured cells %+.1f L, the others %+.1f L; the cavity "
+            "keeps %zu of the %zu inside returns (the rest lie within %.3f m of the structure)\n",
+            measured_l, unmeasured_l, cavity_points, reg.model->inside.size(),
+            reg.model->structure_radius_m);
         out << "empty surface error [cm]\n";
         for (int r = g.rows - 1; r >= 0; --r) {
             for (int c = 0; c < g.cols; ++c) {
                 const auto uk = static_cast<std::size_t>(r * g.cols + c);
                 if (g.weight[uk] <= 0.0) continue;
-                const Eigen::Vector2d a = g.anchor[uk];
-                out << absl::StrFormat(
-                    "%5.0f%s", 100.0 * (empty->height[uk] - geometry.InnerSurfaceZ(a.x(), a.y())),
-                    empty->support[uk] > 0 ? " " : "*");
+                out << absl::StrFormat("%5.0f%s", 100.0 * (empty->height[uk] - truth[uk]),
+                                       empty->support[uk] > 0 ? " " : "*");
             }
             out << "\n";
         }
