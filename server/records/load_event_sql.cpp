@@ -2,11 +2,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
+#include "server/records/alert_sql.hpp"
 
 namespace soilvol::server {
 namespace {
 
-// "@" stands for the table prefix; @SERIAL and @BLOB for the backend's own types.
+// For BackendSql: "@" stands for the table prefix, @SERIAL and @BLOB for the backend's types.
 constexpr const char* kLoadEventSchema = R"sql(
 CREATE TABLE IF NOT EXISTS @load_events (
     id @SERIAL,
@@ -41,15 +42,7 @@ constexpr const char* kEventColumnList =
 }  // namespace
 
 LoadEventSql::LoadEventSql(const std::string& prefix, bool sqlite) {
-    auto sql = [&](const std::string& text) {
-        std::string out = absl::StrReplaceAll(
-            text,
-            {{"@SERIAL", sqlite ? "INTEGER PRIMARY KEY AUTOINCREMENT" : "BIGSERIAL PRIMARY KEY"},
-             {"@BLOB", sqlite ? "BLOB" : "BYTEA"}});
-        out = absl::StrReplaceAll(out, {{"@", prefix}});
-        if (sqlite) out = absl::StrReplaceAll(out, {{"$", "?"}});
-        return out;
-    };
+    auto sql = [&](const std::string& text) { return BackendSql(text, prefix, sqlite); };
     schema = sql(kLoadEventSchema);
     // The load's newest record, this change's included: committed before its event.
     insert_event = sql(

@@ -225,63 +225,48 @@ template class RecordFeed<EstimateRecord>;
 template class RecordFeed<AlertRecord>;
 template class RecordFeed<LoadEventRecord>;
 
-EstimateFeed::Source EstimateSource(RecordStore& store) {
-    EstimateFeed::Source source;
-    source.after = [&store](const std::string& container_id, std::int64_t after_id, int limit) {
-        RecordQuery query;
+namespace {
+
+/// A feed's source over a store's list of rows by Query (container_id, after_id, limit);
+/// `newest` asks for the newest row.
+template <typename Row, typename Query, typename List>
+typename RecordFeed<Row>::Source ListSource(List list, Query newest) {
+    typename RecordFeed<Row>::Source source;
+    source.after = [list](const std::string& container_id, std::int64_t after_id, int limit) {
+        Query query;
         query.container_id = container_id;
         query.after_id = after_id;
         query.limit = limit;
-        return store.List(query);
+        return list(query);
     };
-    source.newest = [&store]() -> std::optional<std::int64_t> {
-        RecordQuery newest;
-        newest.limit = 1;
-        newest.with_payload = false;
-        absl::StatusOr<std::vector<EstimateRecord>> rows = store.List(newest);
+    newest.limit = 1;
+    source.newest = [list, newest]() -> std::optional<std::int64_t> {
+        absl::StatusOr<std::vector<Row>> rows = list(newest);
         if (!rows.ok()) return std::nullopt;
         return rows->empty() ? 0 : rows->front().id;
     };
     return source;
+}
+
+}  // namespace
+
+EstimateFeed::Source EstimateSource(RecordStore& store) {
+    RecordQuery newest;
+    newest.with_payload = false;
+    return ListSource<EstimateRecord>([&store](const RecordQuery& q) { return store.List(q); },
+                                      newest);
 }
 
 AlertFeed::Source AlertSource(RecordStore& store) {
-    AlertFeed::Source source;
-    source.after = [&store](const std::string& container_id, std::int64_t after_id, int limit) {
-        AlertQuery query;
-        query.container_id = container_id;
-        query.after_id = after_id;
-        query.limit = limit;
-        return store.ListAlerts(query);
-    };
-    source.newest = [&store]() -> std::optional<std::int64_t> {
-        AlertQuery newest;
-        newest.limit = 1;
-        absl::StatusOr<std::vector<AlertRecord>> rows = store.ListAlerts(newest);
-        if (!rows.ok()) return std::nullopt;
-        return rows->empty() ? 0 : rows->front().id;
-    };
-    return source;
+    return ListSource<AlertRecord>([&store](const AlertQuery& q) { return store.ListAlerts(q); },
+                                   AlertQuery());
 }
 
 LoadEventFeed::Source LoadEventSource(RecordStore& store) {
-    LoadEventFeed::Source source;
-    source.after = [&store](const std::string& container_id, std::int64_t after_id, int limit) {
-        LoadEventQuery query;
-        query.container_id = container_id;
-        query.after_id = after_id;
-        query.limit = limit;
-        return store.ListLoadEvents(query);
-    };
-    source.newest = [&store]() -> std::optional<std::int64_t> {
-        LoadEventQuery newest;
-        newest.limit = 1;
-        newest.with_records = false;
-        absl::StatusOr<std::vector<LoadEventRecord>> rows = store.ListLoadEvents(newest);
-        if (!rows.ok()) return std::nullopt;
-        return rows->empty() ? 0 : rows->front().id;
-    };
-    return source;
+    LoadEventQuery newest;
+    newest.with_records = false;
+    return ListSource<LoadEventRecord>(
+        [&store](const LoadEventQuery& q) { return store.ListLoadEvents(q); }, newest);
 }
 
 }  // namespace soilvol::server

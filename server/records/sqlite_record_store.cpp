@@ -293,6 +293,22 @@ void BindDelivery(Statement& insert, const DeliveryRecord& d) {
     insert.Bind(9, d.delay_ms);
 }
 
+/// A load's columns from load_id to payload (as the loads table holds them) from `first` on.
+void BindLoad(Statement& statement, int first, const LoadRecord& load) {
+    statement.Bind(first, load.load_id);
+    statement.Bind(first + 1, load.haul_unit_id);
+    statement.Bind(first + 2, load.body_container_id);
+    statement.Bind(first + 3, std::int64_t{load.state});
+    statement.Bind(first + 4, std::int64_t{load.close_reason});
+    statement.Bind(first + 5, load.create_time_us);
+    statement.Bind(first + 6, load.update_time_us);
+    statement.Bind(first + 7, load.close_time_us);
+    statement.Bind(first + 8, load.last_activity_us);
+    statement.Bind(first + 9, load.revision);
+    statement.Bind(first + 10, load.request_id);
+    statement.BindBlob(first + 11, load.payload);
+}
+
 class SqliteRecordStore final : public RecordStore {
   public:
     explicit SqliteRecordStore(sqlite3* db) : db_(db) {}
@@ -355,18 +371,7 @@ class SqliteRecordStore final : public RecordStore {
                 "last_activity_us, revision, request_id, payload, passes, judged) VALUES "
                 "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, 0, 0)");
             SOILVOL_RETURN_IF_ERROR(insert.Prepared("create a load"));
-            insert.Bind(1, load.load_id);
-            insert.Bind(2, load.haul_unit_id);
-            insert.Bind(3, load.body_container_id);
-            insert.Bind(4, std::int64_t{load.state});
-            insert.Bind(5, std::int64_t{load.close_reason});
-            insert.Bind(6, load.create_time_us);
-            insert.Bind(7, load.update_time_us);
-            insert.Bind(8, load.close_time_us);
-            insert.Bind(9, load.last_activity_us);
-            insert.Bind(10, load.revision);
-            insert.Bind(11, load.request_id);
-            insert.BindBlob(12, load.payload);
+            BindLoad(insert, 1, load);
             SOILVOL_RETURN_IF_ERROR(insert.Step("create a load").status());
             load.seq = sqlite3_last_insert_rowid(db_);
             LoadEventRecord created =
@@ -886,18 +891,7 @@ class SqliteRecordStore final : public RecordStore {
         insert.Bind(3, event.container_id);
         insert.Bind(4, event.estimate_id);
         insert.Bind(5, load.seq);
-        insert.Bind(6, load.load_id);
-        insert.Bind(7, load.haul_unit_id);
-        insert.Bind(8, load.body_container_id);
-        insert.Bind(9, std::int64_t{load.state});
-        insert.Bind(10, std::int64_t{load.close_reason});
-        insert.Bind(11, load.create_time_us);
-        insert.Bind(12, load.update_time_us);
-        insert.Bind(13, load.close_time_us);
-        insert.Bind(14, load.last_activity_us);
-        insert.Bind(15, load.revision);
-        insert.Bind(16, load.request_id);
-        insert.BindBlob(17, load.payload);
+        BindLoad(insert, 6, load);
         insert.Bind(18, load.passes);
         SOILVOL_RETURN_IF_ERROR(insert.Step("keep a load event").status());
         event.id = insert.Int(0);

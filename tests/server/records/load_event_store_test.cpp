@@ -2,6 +2,7 @@
 
 #include <vector>
 
+#include "load_fixtures.hpp"
 #include "server/records/load_record.hpp"
 #include "server/records/record_store.hpp"
 #include "test_databases.hpp"
@@ -10,27 +11,6 @@ namespace soilvol::server {
 namespace {
 
 constexpr std::int64_t kMin = 60'000'000;
-
-LoadRecord Opened(const std::string& id, const std::string& haul_unit, std::int64_t time_us) {
-    LoadRecord load;
-    load.load_id = id;
-    load.haul_unit_id = haul_unit;
-    load.body_container_id = "body";
-    load.create_time_us = load.update_time_us = load.last_activity_us = time_us;
-    load.request_id = "req-" + id;
-    load.payload = std::string("client\0fields", 13);
-    return load;
-}
-
-EstimateRecord Scan(const std::string& load_id, const std::string& container_id,
-                    std::int64_t time_us, int role, std::int64_t idle_us = 0) {
-    EstimateRecord record;
-    record.container_id = container_id;
-    record.create_time_us = time_us;
-    record.payload = "p";
-    record.load = LoadLink{load_id, role, idle_us};
-    return record;
-}
 
 std::vector<LoadEventRecord> Events(RecordStore& store, LoadEventQuery query = {}) {
     query.after_id = query.after_id.value_or(0);
@@ -53,18 +33,17 @@ TEST_P(LoadEventStoreTest, EveryChangeOfALoadIsAnEventInCommitOrderWithItsStateT
     SOILVOL_NEED_DATABASE(db);
     auto store = db.Open();
     ASSERT_NE(store, nullptr);
-    LoadRecord load = Opened("l-1", "truck-7", kMin);
+    LoadRecord load = NewLoad("l-1", "truck-7", kMin);
     ASSERT_TRUE(store->CreateLoad(load, 0).ok());
-    std::vector<EstimateRecord> passes = {Scan("l-1", "bucket", 2 * kMin, LoadLink::kPass),
-                                          Scan("l-1", "bucket", 3 * kMin, LoadLink::kPass)};
+    std::vector<EstimateRecord> passes = {Pass("l-1", 2 * kMin), Pass("l-1", 3 * kMin)};
     ASSERT_TRUE(store->Append(passes).ok());
     ASSERT_TRUE(store->CloseLoad("l-1", 4 * kMin, 0, std::nullopt).ok());
     ASSERT_TRUE(store->CloseLoad("l-1", 5 * kMin, 0, std::nullopt).ok());  // closed: no change
-    std::vector<EstimateRecord> body = {Scan("l-1", "body", 6 * kMin, LoadLink::kBodyScan)};
+    std::vector<EstimateRecord> body = {Pass("l-1", 6 * kMin, LoadLink::kBodyScan)};
     ASSERT_TRUE(store->Append(body).ok());
-    LoadRecord second = Opened("l-2", "truck-7", 7 * kMin);
+    LoadRecord second = NewLoad("l-2", "truck-7", 7 * kMin);
     ASSERT_TRUE(store->CreateLoad(second, 0).ok());
-    LoadRecord third = Opened("l-3", "truck-7", 8 * kMin);  // closes l-2 (NEW_LOAD)
+    LoadRecord third = NewLoad("l-3", "truck-7", 8 * kMin);  // closes l-2 (NEW_LOAD)
     ASSERT_TRUE(store->CreateLoad(third, 0).ok());
 
     const std::vector<LoadEventRecord> events = Events(*store);
@@ -113,19 +92,19 @@ TEST_P(LoadEventStoreTest, AnIdleCloseIsAnEventBeforeThePassThatFoundItOrByTheJu
     auto store = db.Open();
     ASSERT_NE(store, nullptr);
     const std::int64_t idle = 10 * kMin;
-    LoadRecord first = Opened("l-1", "truck-1", kMin);
-    LoadRecord second = Opened("l-2", "truck-2", kMin);
+    LoadRecord first = NewLoad("l-1", "truck-1", kMin);
+    LoadRecord second = NewLoad("l-2", "truck-2", kMin);
     ASSERT_TRUE(store->CreateLoad(first, idle).ok());
     ASSERT_TRUE(store->CreateLoad(second, idle).ok());
     // A pass after the idle time: refused, the idle close kept with its event.
-    std::vector<EstimateRecord> late = {Scan("l-1", "bucket", 20 * kMin, LoadLink::kPass, idle),
-                                        Scan("l-1", "body", 21 * kMin, LoadLink::kBodyScan, idle)};
+    std::vector<EstimateRecord> late = {Pass("l-1", 20 * kMin, LoadLink::kPass, idle),
+                                        Pass("l-1", 21 * kMin, LoadLink::kBodyScan, idle)};
     ASSERT_TRUE(store->Append(late).ok());
     EXPECT_TRUE(absl::IsFailedPrecondition(late[0].rejected));
     // The judge closes l-2 through CloseLoad: idle, at its last activity plus the idle time.
     ASSERT_TRUE(store->CloseLoad("l-2", 30 * kMin, idle, std::nullopt).ok());
     // A refused join (a pass to a closed load) keeps no event.
-    std::vector<EstimateRecord> refused = {Scan("l-1", "bucket", 31 * kMin, LoadLink::kPass)};
+    std::vector<EstimateRecord> refused = {Pass("l-1", 31 * kMin, LoadLink::kPass)};
     ASSERT_TRUE(store->Append(refused).ok());
 
     const std::vector<LoadEventRecord> events = Events(*store);
@@ -147,13 +126,13 @@ TEST_P(LoadEventStoreTest, ListedByContainerAndHaulUnitAfterAnIdNewestFirstWitho
     SOILVOL_NEED_DATABASE(db);
     auto store = db.Open();
     ASSERT_NE(store, nullptr);
-    LoadRecord a = Opened("l-a", "truck-a", kMin);
-    LoadRecord b = Opened("l-b", "truck-b", kMin);
+    LoadRecord a = NewLoad("l-a", "truck-a", kMin);
+    LoadRecord b = NewLoad("l-b", "truck-b", kMin);
     ASSERT_TRUE(store->CreateLoad(a, 0).ok());
     ASSERT_TRUE(store->CreateLoad(b, 0).ok());
-    std::vector<EstimateRecord> batch = {Scan("l-a", "bucket-1", 2 * kMin, LoadLink::kPass),
-                                         Scan("l-b", "bucket-2", 2 * kMin, LoadLink::kPass),
-                                         Scan("l-a", "bucket-2", 3 * kMin, LoadLink::kPass)};
+    std::vector<EstimateRecord> batch = {Pass("l-a", 2 * kMin, LoadLink::kPass, 0, "bucket-1"),
+                                         Pass("l-b", 2 * kMin, LoadLink::kPass, 0, "bucket-2"),
+                                         Pass("l-a", 3 * kMin, LoadLink::kPass, 0, "bucket-2")};
     ASSERT_TRUE(store->Append(batch).ok());
     const std::vector<LoadEventRecord> all = Events(*store);
     ASSERT_EQ(all.size(), 5u);
@@ -187,13 +166,13 @@ TEST_P(LoadEventStoreTest, RetentionAndPurgeRemoveEventsAsAlerts) {
     auto store = db.Open();
     ASSERT_NE(store, nullptr);
     const std::int64_t day = 24 * 60 * kMin;
-    LoadRecord old_load = Opened("l-old", "truck-1", kMin);
+    LoadRecord old_load = NewLoad("l-old", "truck-1", kMin);
     ASSERT_TRUE(store->CreateLoad(old_load, 0).ok());
-    LoadRecord recent = Opened("l-new", "truck-2", 100 * day);
+    LoadRecord recent = NewLoad("l-new", "truck-2", 100 * day);
     ASSERT_TRUE(store->CreateLoad(recent, 0).ok());
     std::vector<EstimateRecord> batch = {
-        Scan("l-new", "bucket-1", 100 * day + kMin, LoadLink::kPass),
-        Scan("l-new", "bucket-2", 100 * day + 2 * kMin, LoadLink::kPass)};
+        Pass("l-new", 100 * day + kMin, LoadLink::kPass, 0, "bucket-1"),
+        Pass("l-new", 100 * day + 2 * kMin, LoadLink::kPass, 0, "bucket-2")};
     ASSERT_TRUE(store->Append(batch).ok());
     RetentionPolicy policy;
     policy.max_age = std::chrono::hours(24 * 90);
