@@ -66,6 +66,19 @@ void PrintLoad(const v1::Load& load, bool json, std::ostream& out) {
     passes.Print(out);
 }
 
+void PrintLoadEventLine(const v1::LoadEvent& event, bool json, std::ostream& out) {
+    if (json) {
+        PrintJson(event, out);
+        out.flush();  // a watch: each event as it arrives
+        return;
+    }
+    const v1::Load& load = event.load();
+    out << event.event_id() << "  " << TimeText(event.time()) << "  "
+        << EnumLabel(v1::LoadEventKind_Name(event.kind()), "LOAD_EVENT_KIND_") << "  "
+        << load.load_id() << "  " << load.haul_unit_id() << "  " << State(load) << "  "
+        << load.pass_count() << " passes  " << Fixed(load.volume_m3(), 3) << " m^3" << std::endl;
+}
+
 void PrintLoadList(const v1::ListLoadsResponse& list, bool json, std::ostream& out) {
     if (json) return PrintJson(list, out);
     Table table({"load", "haul unit", "state", "passes", "volume [m^3]", "1-sigma [L]", "status",

@@ -5,6 +5,7 @@
 #include "client/commands.hpp"
 #include "client/load_printer.hpp"
 #include "client/response_printer.hpp"
+#include "client/watch_loop.hpp"
 
 namespace soilvol::client {
 namespace {
@@ -97,6 +98,31 @@ int RunList(const ListOptions& options, const GlobalOptions& global) {
     return kExitOk;
 }
 
+struct WatchOptions {
+    std::string haul_unit, container, after;
+    int count = 0;
+};
+
+/// Prints each change of a load as a line until interrupted (or --count events), resuming after
+/// the last one printed when the server ends the watch.
+int RunWatch(const WatchOptions& options, const GlobalOptions& global) {
+    Connection connection(global);
+    if (!connection.ok()) return kExitUsage;
+    v1::WatchLoadsRequest request;
+    request.set_haul_unit_id(options.haul_unit);
+    request.set_container_id(options.container);
+    request.set_after_event_id(options.after);
+    return RunResumableWatch<v1::LoadEvent>(
+        connection, request, options.count,
+        [](auto& soil, auto* context, const auto& r) { return soil.WatchLoads(context, r); },
+        [&global](const v1::LoadEvent& event) {
+            PrintLoadEventLine(event, global.json, std::cout);
+        },
+        [](v1::WatchLoadsRequest& r, const v1::LoadEvent& event) {
+            r.set_after_event_id(event.event_id());
+        });
+}
+
 }  // namespace
 
 void AddLoadsCommand(CLI::App& app, const GlobalOptions& global, int* exit_code) {
@@ -143,6 +169,17 @@ void AddLoadsCommand(CLI::App& app, const GlobalOptions& global, int* exit_code)
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
     list_command->callback([list, &global, exit_code] { *exit_code = RunList(*list, global); });
+
+    auto watch = std::make_shared<WatchOptions>();
+    auto* watch_command = group->add_subcommand(
+        "watch", "print each change of a load as it is committed (Ctrl-C ends)");
+    watch_command->add_option("--haul-unit", watch->haul_unit, "only this haul unit's loads");
+    watch_command->add_option("--container", watch->container,
+                              "only this container's events (its passes or body scans)");
+    watch_command->add_option("--after", watch->after, "resume after this event id");
+    watch_command->add_option("--count", watch->count, "end after this many events")
+        ->check(CLI::NonNegativeNumber);
+    watch_command->callback([watch, &global, exit_code] { *exit_code = RunWatch(*watch, global); });
 }
 
 }  // namespace soilvol::client

@@ -7,11 +7,11 @@
 
 namespace soilvol::client {
 
-/// A watch (WatchEstimates, WatchAlerts) printed message by message until interrupted, or until
-/// `count` messages (0: no end). `open(stub, context, request)` starts the stream, `print` shows
-/// a message and `resume(request, message)` sets where to resume after it: a stream the server
-/// ends (UNAVAILABLE, RESOURCE_EXHAUSTED) is reopened after the last one printed, 20 times at
-/// most a second apart. The exit code.
+/// A watch (WatchEstimates, WatchAlerts, WatchLoads) printed message by message until interrupted,
+/// or until `count` messages (0: no end). `open(stub, context, request)` starts the stream, `print`
+/// shows a message and `resume(request, message)` sets where to resume after it: a stream the
+/// server ends (UNAVAILABLE, RESOURCE_EXHAUSTED) is reopened after the last one printed, 20 times
+/// at most a second apart. The exit code.
 template <typename Message, typename Request, typename Open, typename Print, typename Resume>
 int RunResumableWatch(Connection& connection, Request request, int count, Open open, Print print,
                       Resume resume) {

@@ -47,8 +47,8 @@ void AddStorageFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
         ->envname("SOILVOL_RECORDS_MAX_AGE_DAYS")
         ->capture_default_str();
     app.add_option("--max-watches", o.max_watches,
-                   "Live estimate watches (gRPC WatchEstimates, SSE) at once; more get "
-                   "RESOURCE_EXHAUSTED / 429")
+                   "Live watches of estimates, alerts and loads together (gRPC and SSE) at "
+                   "once; more get RESOURCE_EXHAUSTED / 429")
         ->envname("SOILVOL_MAX_WATCHES")
         ->capture_default_str();
     app.add_option("--watch-heartbeat-seconds", o.watch_heartbeat_s,

@@ -51,6 +51,7 @@ struct ServerParts {
     std::unique_ptr<EstimateRecorder> recorder;  // after records: stops before it closes
     std::unique_ptr<EstimateFeed> feed;          // after the recorder it waits on
     std::unique_ptr<AlertFeed> alert_feed;
+    std::unique_ptr<LoadEventFeed> load_feed;
     std::vector<WebhookTarget> webhooks;
     Metrics metrics;
     std::unique_ptr<WorkerPool> pool;
@@ -200,8 +201,10 @@ absl::Status OpenRecords(ServerParts& p) {
     EstimateFeed::Config feed;
     feed.max_watches = static_cast<std::size_t>(o.max_watches);
     feed.heartbeat = std::chrono::milliseconds(std::lround(o.watch_heartbeat_s * 1000.0));
+    feed.in_use = std::make_shared<std::atomic<std::size_t>>(0);  // one limit for the three
     p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateSource(*p.records), feed);
     p.alert_feed = std::make_unique<AlertFeed>(*p.recorder, AlertSource(*p.records), feed);
+    p.load_feed = std::make_unique<LoadEventFeed>(*p.recorder, LoadEventSource(*p.records), feed);
     if (!o.webhooks_file.empty()) {
         SOILVOL_ASSIGN_OR_RETURN(p.webhooks, LoadWebhooks(o.webhooks_file));
     }
@@ -229,7 +232,8 @@ absl::Status MakeServices(ServerParts& p, const google::protobuf::ServiceDescrip
     SOILVOL_ASSIGN_OR_RETURN(handling.alert_rules, ParseAlertRules(p.options.alert_rules));
     for (const WebhookTarget& target : p.webhooks) handling.webhooks.push_back(target.config);
     p.handlers = std::make_unique<SoilVolumeHandlers>(*p.store, p.recorder.get(), p.feed.get(),
-                                                      p.alert_feed.get(), std::move(handling));
+                                                      p.alert_feed.get(), p.load_feed.get(),
+                                                      std::move(handling));
     p.rpcs = MakeRpcTable(*p.handlers);
     SOILVOL_RETURN_IF_ERROR(CheckRpcTable(p.rpcs, api));
     SoilVolumeHandlers* handlers = p.handlers.get();
@@ -429,6 +433,7 @@ void Server::Shutdown() {
     // that the transports need not wait for them.
     if (p.feed != nullptr) p.feed->Shutdown();
     if (p.alert_feed != nullptr) p.alert_feed->Shutdown();
+    if (p.load_feed != nullptr) p.load_feed->Shutdown();
     p.grpc_server->Shutdown(wall_deadline);
     const auto left = std::max(Clock::duration::zero(), deadline - Clock::now());
     Dispatcher* dispatcher = p.dispatcher.get();

@@ -23,6 +23,7 @@ const WATCHES = {
     WatchEstimates: {event: "estimate", id: "estimateId", resume: "afterEstimateId",
                      schema: "v1Estimate"},
     WatchAlerts: {event: "alert", id: "alertId", resume: "afterAlertId", schema: "v1Alert"},
+    WatchLoads: {event: "load", id: "eventId", resume: "afterEventId", schema: "v1LoadEvent"},
 };
 
 function camel(name) {

@@ -22,7 +22,7 @@ struct MethodScope {
     Scope scope;
 };
 
-constexpr std::array<MethodScope, 24> kMethodScopes = {{
+constexpr std::array<MethodScope, 25> kMethodScopes = {{
     {"Calibrate", Scope::kAdmin},
     {"GetCalibration", Scope::kRead},
     {"ListCalibrations", Scope::kRead},
@@ -46,6 +46,7 @@ constexpr std::array<MethodScope, 24> kMethodScopes = {{
     {"GetProduction", Scope::kRead},
     {"ListAlerts", Scope::kRead},
     {"WatchAlerts", Scope::kRead},
+    {"WatchLoads", Scope::kRead},
     // A webhook's URL may carry the receiver's credentials in its query.
     {"ListWebhooks", Scope::kAdmin},
     {"ListWebhookDeliveries", Scope::kAdmin},

@@ -68,10 +68,10 @@ class EstimateStream final
     int64_t sequence_ = 0;
 };
 
-/// WatchEstimates and WatchAlerts: what the feed delivers is queued (at most kMaxQueued;
-/// beyond, the watch ends as too slow) and written one at a time. The shared State outlives the
-/// reactor, so a message the feed hands over while the call ends finds no reactor rather than a
-/// dangling one.
+/// WatchEstimates, WatchAlerts and WatchLoads: what the feed delivers is queued (at most
+/// kMaxQueued; beyond, the watch ends as too slow) and written one at a time. The shared State
+/// outlives the reactor, so a message the feed hands over while the call ends finds no reactor
+/// rather than a dangling one.
 template <typename Message>
 class WatchStream final : public grpc::ServerWriteReactor<Message> {
   public:
@@ -275,6 +275,14 @@ grpc::ServerWriteReactor<v1::Alert>* SoilVolumeService::WatchAlerts(
     return new WatchStream<v1::Alert>(
         context, dispatcher_, "WatchAlerts", [this, request](auto deliver, auto ended) {
             return handlers_.WatchAlerts(*request, std::move(deliver), std::move(ended));
+        });
+}
+
+grpc::ServerWriteReactor<v1::LoadEvent>* SoilVolumeService::WatchLoads(
+    grpc::CallbackServerContext* context, const v1::WatchLoadsRequest* request) {
+    return new WatchStream<v1::LoadEvent>(
+        context, dispatcher_, "WatchLoads", [this, request](auto deliver, auto ended) {
+            return handlers_.WatchLoads(*request, std::move(deliver), std::move(ended));
         });
 }
 

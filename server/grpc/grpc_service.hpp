@@ -31,6 +31,8 @@ class SoilVolumeService final : public v1::SoilVolume::CallbackService {
         grpc::CallbackServerContext* context, const v1::WatchEstimatesRequest* request) override;
     grpc::ServerWriteReactor<v1::Alert>* WatchAlerts(
         grpc::CallbackServerContext* context, const v1::WatchAlertsRequest* request) override;
+    grpc::ServerWriteReactor<v1::LoadEvent>* WatchLoads(
+        grpc::CallbackServerContext* context, const v1::WatchLoadsRequest* request) override;
 
   private:
     grpc::ServerUnaryReactor* Unary(grpc::CallbackServerContext* context, const char* method,

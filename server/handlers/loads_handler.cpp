@@ -235,7 +235,8 @@ absl::Status SoilVolumeHandlers::CreateLoad(const v1::CreateLoadRequest& request
         created = absl::OkStatus();
     }
     SOILVOL_RETURN_IF_ERROR(created);
-    JudgeClosed();  // the haul unit's previous load, closed by this one
+    JudgeClosed();             // the haul unit's previous load, closed by this one
+    recorder_->WakeWaiters();  // the watches: the load's events now, not at the next poll
     return BuildLoads({row}, {response});
 }
 
@@ -289,6 +290,7 @@ absl::Status SoilVolumeHandlers::CloseLoad(const v1::CloseLoadRequest& request, 
     if (absl::IsNotFound(row.status())) return Annotate(row.status(), "load_id");
     SOILVOL_RETURN_IF_ERROR(row.status());
     JudgeClosed();
+    recorder_->WakeWaiters();
     return BuildLoads({*row}, {response});
 }
 

@@ -33,6 +33,40 @@ Rpc MakeRpc(SoilVolumeHandlers& handlers) {
     return rpc;
 }
 
+using WatchStop = absl::StatusOr<std::function<void()>>;
+using WatchEndedFn = std::function<void(const absl::Status&)>;
+
+template <typename Handler>
+struct WatchTraits;
+template <typename Req, typename Msg>
+struct WatchTraits<WatchStop (SoilVolumeHandlers::*)(const Req&, std::function<bool(const Msg*)>,
+                                                     WatchEndedFn)> {
+    using Request = Req;
+    using Message = Msg;
+};
+
+/// A server-streaming RPC over its handler (a template argument, as MakeRpc's).
+template <auto watch>
+StreamRpc MakeStream(SoilVolumeHandlers& handlers, const char* id_field, const char* resume_field,
+                     const char* event) {
+    using Request = typename WatchTraits<decltype(watch)>::Request;
+    using Message = typename WatchTraits<decltype(watch)>::Message;
+    StreamRpc rpc;
+    rpc.new_request = [] { return std::make_unique<Request>(); };
+    rpc.start = [&handlers](const google::protobuf::Message& request,
+                            std::function<bool(const google::protobuf::Message*)> deliver,
+                            WatchEndedFn ended) {
+        return (handlers.*watch)(
+            static_cast<const Request&>(request),
+            [deliver = std::move(deliver)](const Message* message) { return deliver(message); },
+            std::move(ended));
+    };
+    rpc.id_field = id_field;
+    rpc.resume_field = resume_field;
+    rpc.event = event;
+    return rpc;
+}
+
 }  // namespace
 
 std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& h) {
@@ -45,35 +79,12 @@ std::map<std::string, Rpc> MakeRpcTable(SoilVolumeHandlers& h) {
 }
 
 std::map<std::string, StreamRpc> MakeStreamTable(SoilVolumeHandlers& handlers) {
-    StreamRpc estimates;
-    estimates.new_request = [] { return std::make_unique<v1::WatchEstimatesRequest>(); };
-    estimates.start = [&handlers](const google::protobuf::Message& request,
-                                  std::function<bool(const google::protobuf::Message*)> deliver,
-                                  std::function<void(const absl::Status&)> ended) {
-        return handlers.WatchEstimates(
-            static_cast<const v1::WatchEstimatesRequest&>(request),
-            [deliver = std::move(deliver)](const v1::Estimate* estimate) {
-                return deliver(estimate);
-            },
-            std::move(ended));
-    };
-    estimates.id_field = "estimate_id";
-    estimates.resume_field = "after_estimate_id";
-    estimates.event = "estimate";
-    StreamRpc alerts;
-    alerts.new_request = [] { return std::make_unique<v1::WatchAlertsRequest>(); };
-    alerts.start = [&handlers](const google::protobuf::Message& request,
-                               std::function<bool(const google::protobuf::Message*)> deliver,
-                               std::function<void(const absl::Status&)> ended) {
-        return handlers.WatchAlerts(
-            static_cast<const v1::WatchAlertsRequest&>(request),
-            [deliver = std::move(deliver)](const v1::Alert* alert) { return deliver(alert); },
-            std::move(ended));
-    };
-    alerts.id_field = "alert_id";
-    alerts.resume_field = "after_alert_id";
-    alerts.event = "alert";
-    return {{"WatchEstimates", std::move(estimates)}, {"WatchAlerts", std::move(alerts)}};
+    return {{"WatchEstimates", MakeStream<&SoilVolumeHandlers::WatchEstimates>(
+                                   handlers, "estimate_id", "after_estimate_id", "estimate")},
+            {"WatchAlerts", MakeStream<&SoilVolumeHandlers::WatchAlerts>(
+                                handlers, "alert_id", "after_alert_id", "alert")},
+            {"WatchLoads", MakeStream<&SoilVolumeHandlers::WatchLoads>(handlers, "event_id",
+                                                                       "after_event_id", "load")}};
 }
 
 absl::Status CheckRpcTable(const std::map<std::string, Rpc>& table,

@@ -98,12 +98,13 @@ EntryStore::Precondition EtagIs(EntryKind kind, const std::string& id, const std
 
 SoilVolumeHandlers::SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder,
                                        EstimateFeed* feed, AlertFeed* alert_feed,
-                                       HandlerOptions options)
+                                       LoadEventFeed* load_feed, HandlerOptions options)
     : store_(store),
       options_(std::move(options)),
       recorder_(recorder),
       feed_(feed),
       alert_feed_(alert_feed),
+      load_feed_(load_feed),
       start_time_(NowTimestamp()),
       calibrations_(store, &DecodeCalibration),
       containers_(store, &DecodeContainer) {}

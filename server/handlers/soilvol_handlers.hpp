@@ -56,11 +56,12 @@ struct HandlerOptions {
 /// errors are absl statuses whose messages name the request field at fault.
 class SoilVolumeHandlers {
   public:
-    /// `recorder` keeps estimate records, `feed` serves their watches and `alert_feed` the
-    /// alerts'; null: records are off (estimates are not kept; the records' RPCs fail with
-    /// FAILED_PRECONDITION).
+    /// `recorder` keeps estimate records, `feed` serves their watches, `alert_feed` the
+    /// alerts' and `load_feed` the load events'; null: records are off (estimates are not kept;
+    /// the records' RPCs fail with FAILED_PRECONDITION).
     SoilVolumeHandlers(EntryStore& store, EstimateRecorder* recorder, EstimateFeed* feed,
-                       AlertFeed* alert_feed, HandlerOptions options = {});
+                       AlertFeed* alert_feed, LoadEventFeed* load_feed,
+                       HandlerOptions options = {});
 
     absl::Status Calibrate(const v1::CalibrateRequest& request, v1::Calibration* response,
                            CallRecord& record);
@@ -97,6 +98,11 @@ class SoilVolumeHandlers {
                            CallRecord& record);
     absl::Status CloseLoad(const v1::CloseLoadRequest& request, v1::Load* response,
                            CallRecord& record);
+    /// WatchLoads, as WatchEstimates: each event with its load as it stood then.
+    using LoadEventDeliver = std::function<bool(const v1::LoadEvent*)>;
+    absl::StatusOr<std::function<void()>> WatchLoads(
+        const v1::WatchLoadsRequest& request, LoadEventDeliver deliver,
+        std::function<void(const absl::Status&)> ended);
 
     absl::Status GetProduction(const v1::GetProductionRequest& request, v1::Production* response,
                                CallRecord& record);
@@ -251,6 +257,8 @@ class SoilVolumeHandlers {
     /// scans oldest first.
     absl::Status BuildLoad(const LoadRecord& row, const std::vector<const EstimateRecord*>& records,
                            std::int64_t now_us, v1::Load* out) const;
+    /// The API message of a load event, its load built from the event's records.
+    absl::Status BuildLoadEvent(const LoadEventRecord& row, v1::LoadEvent* out) const;
     /// The request's zone and shift starts (or the server's), echoed into `response`.
     absl::StatusOr<SiteCalendar> CalendarOf(const v1::GetProductionRequest& request,
                                             v1::Production* response) const;
@@ -268,6 +276,7 @@ class SoilVolumeHandlers {
     EstimateRecorder* const recorder_;
     EstimateFeed* const feed_;
     AlertFeed* const alert_feed_;
+    LoadEventFeed* const load_feed_;
     mutable std::mutex judge_mutex_;
     JudgeFigures judged_;
     const google::protobuf::Timestamp start_time_;

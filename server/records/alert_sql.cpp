@@ -7,7 +7,7 @@ namespace soilvol::server {
 namespace {
 
 // "@" stands for the table prefix; types are what both backends take (BIGINT is an INTEGER
-// to SQLite; the alert and delivery ids are the backend's own auto-increment, swapped in).
+// to SQLite; the alert and delivery ids are the backend's own auto-increment, see BackendSql).
 constexpr const char* kSchema = R"sql(
 CREATE TABLE IF NOT EXISTS @alerts (
     id @SERIAL,
@@ -59,10 +59,7 @@ constexpr const char* kAlertColumnList =
 }  // namespace
 
 AlertSql::AlertSql(const std::string& prefix, bool sqlite) : prefix_(prefix), sqlite_(sqlite) {
-    schema =
-        Sql(absl::StrReplaceAll(kSchema, {{"@SERIAL", sqlite ? "INTEGER PRIMARY KEY AUTOINCREMENT"
-                                                             : "BIGSERIAL PRIMARY KEY"}})
-                .c_str());
+    schema = Sql(kSchema);
     insert_alert = Sql(
         "INSERT INTO @alerts (kind, create_time_us, container_id, estimate_id, load_id, "
         "haul_unit_id, request_id, message, value, threshold) VALUES ($1, $2, $3, $4, $5, $6, $7, "
@@ -115,9 +112,14 @@ std::string AlertSql::ListAlertsSql(bool ascending) const {
                    .c_str());
 }
 
-std::string AlertSql::Sql(const char* text) const {
-    std::string sql = absl::StrReplaceAll(text, {{"@", prefix_}});
-    if (sqlite_) sql = absl::StrReplaceAll(sql, {{"$", "?"}});
+std::string AlertSql::Sql(const char* text) const { return BackendSql(text, prefix_, sqlite_); }
+
+std::string BackendSql(const std::string& text, const std::string& prefix, bool sqlite) {
+    std::string sql = absl::StrReplaceAll(
+        text, {{"@SERIAL", sqlite ? "INTEGER PRIMARY KEY AUTOINCREMENT" : "BIGSERIAL PRIMARY KEY"},
+               {"@BLOB", sqlite ? "BLOB" : "BYTEA"}});
+    sql = absl::StrReplaceAll(sql, {{"@", prefix}});
+    if (sqlite) sql = absl::StrReplaceAll(sql, {{"$", "?"}});
     return sql;
 }
 

@@ -38,6 +38,10 @@ struct AlertSql {
     bool sqlite_;
 };
 
+/// `text` for one backend: "@" names a table (`prefix` before it), @SERIAL and @BLOB the
+/// backend's auto-increment key and byte string, and for SQLite $N parameters become ?N.
+std::string BackendSql(const std::string& text, const std::string& prefix, bool sqlite);
+
 /// Columns of a listed alert, in AlertRecord order (id first).
 inline constexpr int kAlertColumns = 11;
 

@@ -48,6 +48,7 @@ JoinedLoad JoinLoadRecord(LoadRecord& load, const LoadLink& link, std::int64_t t
         load.last_activity_us = time_us;
         joined.first_pass = ++load.passes == 1;
     }
+    joined.load = load;
     return joined;
 }
 

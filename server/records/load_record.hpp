@@ -63,6 +63,7 @@ struct JoinedLoad {
     std::string haul_unit_id;  ///< "" for a record of no load
     bool first_pass = false;
     bool body_scan = false;  ///< its soil was counted in the passes: not production
+    LoadRecord load;         ///< the load after the record joined (its event's state)
 };
 
 /// `load` after a record linked by `link` at `time_us` joined it (CheckJoin passed): its

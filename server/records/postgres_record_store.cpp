@@ -8,6 +8,7 @@
 #include "absl/strings/str_format.h"
 #include "core/common/status_macros.hpp"
 #include "server/records/alert_sql.hpp"
+#include "server/records/load_event_sql.hpp"
 #include "server/records/record_store.hpp"
 
 namespace soilvol::server {
@@ -227,14 +228,46 @@ void PgWriteLoadState(pqxx::work& work, const LoadRecord& load) {
         load.last_activity_us, load.revision, load.passes);
 }
 
+/// The records of `load_id` up to the id `upto`, oldest first, appended to `out`.
+void PgReadLoadRecords(pqxx::work& work, const std::string& load_id, std::int64_t upto,
+                       std::vector<EstimateRecord>& out) {
+    const pqxx::result rows = work.exec_params(
+        absl::StrCat("SELECT ", kRecordColumns,
+                     ", payload FROM soilvol_estimates WHERE load_id = $1 AND load_id <> '' AND "
+                     "id <= $2 ORDER BY id"),
+        load_id, upto);
+    for (const pqxx::row& row : rows) out.push_back(RecordFrom(row, true));
+}
+
+/// Keeps `event` (sets its id).
+void PgInsertLoadEvent(pqxx::work& work, const LoadEventSql& sql, LoadEventRecord& event) {
+    const LoadRecord& load = event.load;
+    const pqxx::binarystring payload(load.payload.data(), load.payload.size());
+    event.id =
+        work.exec_params(sql.insert_event, event.kind, event.time_us, event.container_id,
+                         event.estimate_id, load.seq, load.load_id, load.haul_unit_id,
+                         load.body_container_id, load.state, load.close_reason, load.create_time_us,
+                         load.update_time_us, load.close_time_us, load.last_activity_us,
+                         load.revision, load.request_id, payload, load.passes)[0][0]
+            .as<std::int64_t>();
+}
+
+/// The event of a load just closed.
+void PgKeepClosed(pqxx::work& work, const LoadEventSql& sql, const LoadRecord& load) {
+    LoadEventRecord event = LoadEventOf(load, LoadEventRecord::kClosed, load.close_time_us);
+    PgInsertLoadEvent(work, sql, event);
+}
+
 /// Whether `record` may join its load (see RecordStore::Append), the load's state written
-/// when it changes; sets `joined`.
-absl::Status PgJoinLoad(pqxx::work& work, const EstimateRecord& record, JoinedLoad* joined) {
+/// when it changes (an idle close's event kept); sets `joined`.
+absl::Status PgJoinLoad(pqxx::work& work, const LoadEventSql& sql, const EstimateRecord& record,
+                        JoinedLoad* joined) {
     const LoadLink& link = *record.load;
     std::optional<LoadRecord> load = PgReadLoad(work, link.load_id);
     if (!load)
         return absl::NotFoundError(absl::StrCat("load_id: load '", link.load_id, "' not found"));
     const bool idled = ApplyIdleClose(*load, record.create_time_us, link.idle_us);
+    if (idled) PgKeepClosed(work, sql, *load);
     absl::Status join = CheckJoin(*load, link);
     if (join.ok()) *joined = JoinLoadRecord(*load, link, record.create_time_us);
     if (join.ok() || idled) PgWriteLoadState(work, *load);
@@ -315,6 +348,7 @@ class PostgresRecordStore final : public RecordStore {
         return Run("create the schema", [this](pqxx::work& work) {
             work.exec(kPostgresSchema);
             work.exec(sql_.schema);
+            work.exec(events_sql_.schema);
             // A database made before the rollup: made from the fine table once.
             const pqxx::result missing = work.exec(
                 "SELECT EXISTS (SELECT 1 FROM soilvol_production) AND NOT EXISTS (SELECT 1 FROM "
@@ -327,7 +361,8 @@ class PostgresRecordStore final : public RecordStore {
     }
 
     absl::Status Append(std::vector<EstimateRecord>& records) override {
-        absl::Status status = Run("append", [&records, &sql = sql_](pqxx::work& work) {
+        absl::Status status = Run("append", [&records, &sql = sql_,
+                                             &events = events_sql_](pqxx::work& work) {
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             std::vector<ProductionCell> production;
             for (EstimateRecord& record : records) {
@@ -338,7 +373,7 @@ class PostgresRecordStore final : public RecordStore {
                 }
                 JoinedLoad joined;
                 if (record.load) {
-                    record.rejected = PgJoinLoad(work, record, &joined);
+                    record.rejected = PgJoinLoad(work, events, record, &joined);
                     if (!record.rejected.ok()) continue;
                 }
                 const pqxx::binarystring payload(record.payload.data(), record.payload.size());
@@ -355,6 +390,15 @@ class PostgresRecordStore final : public RecordStore {
                 for (AlertRecord& alert : record.alerts) {
                     alert.estimate_id = record.id;
                     PgInsertAlert(work, sql, alert);
+                }
+                if (record.load) {
+                    LoadEventRecord event =
+                        LoadEventOf(joined.load,
+                                    joined.body_scan ? LoadEventRecord::kBodyScanned
+                                                     : LoadEventRecord::kPassAdded,
+                                    record.create_time_us, record.container_id);
+                    event.estimate_id = record.id;
+                    PgInsertLoadEvent(work, events, event);
                 }
                 if (!joined.body_scan) {
                     production.push_back(CellOf(record.measures, record.container_id,
@@ -422,6 +466,7 @@ class PostgresRecordStore final : public RecordStore {
                              oldest);
             work.exec_params(sql_.prune_alerts, oldest);
             work.exec_params(sql_.prune_deliveries, oldest);
+            work.exec_params(events_sql_.prune_events, oldest);
             if (!containers) {
                 deleted += work.exec_params(
                                    "DELETE FROM soilvol_estimates WHERE id IN (SELECT id FROM "
@@ -452,6 +497,7 @@ class PostgresRecordStore final : public RecordStore {
                                        container_id)
                           .affected_rows();
             work.exec_params(sql_.purge_alerts, container_id);
+            work.exec_params(events_sql_.purge_events, container_id);
             work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             work.exec_params("DELETE FROM soilvol_production WHERE container_id = $1",
                              container_id);
@@ -476,6 +522,7 @@ class PostgresRecordStore final : public RecordStore {
                 LoadRecord previous = PgLoadFrom(open[0]);
                 CloseLoadAt(previous, LoadRecord::kNewLoad, load.create_time_us, idle_us);
                 PgWriteLoadState(work, previous);
+                PgKeepClosed(work, events_sql_, previous);
             }
             const pqxx::binarystring payload(load.payload.data(), load.payload.size());
             const pqxx::result seq = work.exec_params(
@@ -487,6 +534,9 @@ class PostgresRecordStore final : public RecordStore {
                 load.close_reason, load.create_time_us, load.update_time_us, load.close_time_us,
                 load.last_activity_us, load.revision, load.request_id, payload);
             load.seq = seq[0][0].as<std::int64_t>();
+            LoadEventRecord created =
+                LoadEventOf(load, LoadEventRecord::kCreated, load.create_time_us);
+            PgInsertLoadEvent(work, events_sql_, created);
         });
     }
 
@@ -526,6 +576,9 @@ class PostgresRecordStore final : public RecordStore {
                                          std::optional<std::int64_t> revision) override {
         LoadRecord closed;
         SOILVOL_RETURN_IF_ERROR(Run("close a load", [&](pqxx::work& work) {
+            // Its event's id in commit order, as every insert's (and before the row lock, as
+            // Append takes them).
+            work.exec_params("SELECT pg_advisory_xact_lock($1)", kInsertLock);
             std::optional<LoadRecord> load = PgReadLoad(work, load_id);
             if (!load) {
                 throw Refused{absl::NotFoundError(absl::StrCat("load '", load_id, "' not found"))};
@@ -535,6 +588,7 @@ class PostgresRecordStore final : public RecordStore {
             }
             if (CloseLoadAt(*load, LoadRecord::kExplicit, now_us, idle_us)) {
                 PgWriteLoadState(work, *load);
+                PgKeepClosed(work, events_sql_, *load);
             }
             closed = *std::move(load);
         }));
@@ -561,12 +615,34 @@ class PostgresRecordStore final : public RecordStore {
         if (load_ids.empty()) return out;
         SOILVOL_RETURN_IF_ERROR(Run("read a load's records", [&](pqxx::work& work) {
             for (const std::string& load_id : load_ids) {
-                const pqxx::result rows = work.exec_params(
-                    absl::StrCat("SELECT ", kRecordColumns,
-                                 ", payload FROM soilvol_estimates "
-                                 "WHERE load_id = $1 AND load_id <> '' ORDER BY id"),
-                    load_id);
-                for (const pqxx::row& row : rows) out.push_back(RecordFrom(row, true));
+                PgReadLoadRecords(work, load_id, std::numeric_limits<std::int64_t>::max(), out);
+            }
+        }));
+        return out;
+    }
+
+    absl::StatusOr<std::vector<LoadEventRecord>> ListLoadEvents(
+        const LoadEventQuery& query) override {
+        std::vector<LoadEventRecord> out;
+        SOILVOL_RETURN_IF_ERROR(Run("list load events", [&](pqxx::work& work) {
+            const pqxx::result rows =
+                work.exec_params(query.after_id ? events_sql_.list_after : events_sql_.list_newest,
+                                 query.after_id.value_or(0), query.container_id, query.haul_unit_id,
+                                 static_cast<std::int64_t>(query.limit));
+            for (const pqxx::row& row : rows) {
+                LoadEventRecord& event = out.emplace_back();
+                event.load = PgLoadFrom(row);
+                event.id = row[kLoadEventIdColumn].as<std::int64_t>();
+                event.kind = row[kLoadEventIdColumn + 1].as<int>();
+                event.time_us = row[kLoadEventIdColumn + 2].as<std::int64_t>();
+                event.container_id = row[kLoadEventIdColumn + 3].as<std::string>();
+                event.estimate_id = row[kLoadEventIdColumn + 4].as<std::int64_t>();
+                event.through_estimate_id = row[kLoadEventIdColumn + 5].as<std::int64_t>();
+            }
+            for (LoadEventRecord& event : out) {
+                if (!query.with_records || event.through_estimate_id == 0) continue;
+                PgReadLoadRecords(work, event.load.load_id, event.through_estimate_id,
+                                  event.records);
             }
         }));
         return out;
@@ -700,6 +776,7 @@ class PostgresRecordStore final : public RecordStore {
 
     const std::string url_;
     const AlertSql sql_{"soilvol_", false};
+    const LoadEventSql events_sql_{"soilvol_", false};
     std::mutex mutex_;
     std::unique_ptr<pqxx::connection> connection_;
 };

@@ -24,8 +24,9 @@ class RecordFeed<Row>::Watch {
     bool Offer(const Row* record) {
         std::lock_guard<std::mutex> lock(call_mutex_);
         if (!live_) return false;
-        if (record != nullptr && !spec_.container_id.empty() &&
-            record->container_id != spec_.container_id) {
+        if (record != nullptr &&
+            ((!spec_.container_id.empty() && record->container_id != spec_.container_id) ||
+             (spec_.match && !spec_.match(*record)))) {
             return true;
         }
         last_sent_ = std::chrono::steady_clock::now();
@@ -55,7 +56,11 @@ class RecordFeed<Row>::Watch {
 
 template <typename Row>
 RecordFeed<Row>::RecordFeed(EstimateRecorder& recorder, Source source, Config config)
-    : recorder_(recorder), source_(std::move(source)), config_(config) {
+    : recorder_(recorder),
+      source_(std::move(source)),
+      config_(config),
+      in_use_(config.in_use != nullptr ? config.in_use
+                                       : std::make_shared<std::atomic<std::size_t>>(0)) {
     ReadNewestId();
     thread_ = std::thread([this] { Run(); });
 }
@@ -88,10 +93,13 @@ absl::StatusOr<std::shared_ptr<typename RecordFeed<Row>::Watch>> RecordFeed<Row>
     Spec spec, Deliver deliver, Ended ended) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return absl::UnavailableError("the server is shutting down");
-    if (watches_.size() >= config_.max_watches) {
-        return absl::ResourceExhaustedError(
-            absl::StrCat("at most ", config_.max_watches, " watches at once"));
-    }
+    std::size_t in_use = in_use_->load();
+    do {
+        if (in_use >= config_.max_watches) {
+            return absl::ResourceExhaustedError(
+                absl::StrCat("at most ", config_.max_watches, " watches at once"));
+        }
+    } while (!in_use_->compare_exchange_weak(in_use, in_use + 1));
     auto watch = std::make_shared<Watch>(std::move(spec), std::move(deliver), std::move(ended));
     // From now on unless told where to resume: the feed thread sets the cursor to the newest
     // id it has handed out (0 marks "not yet placed").
@@ -104,7 +112,14 @@ template <typename Row>
 void RecordFeed<Row>::Stop(const std::shared_ptr<Watch>& watch) {
     watch->Close(absl::OkStatus(), false);
     std::lock_guard<std::mutex> lock(mutex_);
-    watches_.erase(std::remove(watches_.begin(), watches_.end(), watch), watches_.end());
+    Forget(watch);
+}
+
+template <typename Row>
+void RecordFeed<Row>::Forget(const std::shared_ptr<Watch>& watch) {
+    const auto gone = std::remove(watches_.begin(), watches_.end(), watch);
+    *in_use_ -= static_cast<std::size_t>(watches_.end() - gone);
+    watches_.erase(gone, watches_.end());
 }
 
 template <typename Row>
@@ -117,7 +132,7 @@ template <typename Row>
 void RecordFeed<Row>::End(const std::shared_ptr<Watch>& watch, const absl::Status& status) {
     watch->Close(status, true);
     std::lock_guard<std::mutex> lock(mutex_);
-    watches_.erase(std::remove(watches_.begin(), watches_.end(), watch), watches_.end());
+    Forget(watch);
 }
 
 template <typename Row>
@@ -183,6 +198,7 @@ void RecordFeed<Row>::Run() {
             stopping = stopping_;
             if (stopping) {
                 watches.swap(watches_);
+                *in_use_ -= watches.size();
             } else {
                 watches = watches_;
             }
@@ -207,44 +223,50 @@ void RecordFeed<Row>::Run() {
 
 template class RecordFeed<EstimateRecord>;
 template class RecordFeed<AlertRecord>;
+template class RecordFeed<LoadEventRecord>;
 
-EstimateFeed::Source EstimateSource(RecordStore& store) {
-    EstimateFeed::Source source;
-    source.after = [&store](const std::string& container_id, std::int64_t after_id, int limit) {
-        RecordQuery query;
+namespace {
+
+/// A feed's source over a store's list of rows by Query (container_id, after_id, limit);
+/// `newest` asks for the newest row.
+template <typename Row, typename Query, typename List>
+typename RecordFeed<Row>::Source ListSource(List list, Query newest) {
+    typename RecordFeed<Row>::Source source;
+    source.after = [list](const std::string& container_id, std::int64_t after_id, int limit) {
+        Query query;
         query.container_id = container_id;
         query.after_id = after_id;
         query.limit = limit;
-        return store.List(query);
+        return list(query);
     };
-    source.newest = [&store]() -> std::optional<std::int64_t> {
-        RecordQuery newest;
-        newest.limit = 1;
-        newest.with_payload = false;
-        absl::StatusOr<std::vector<EstimateRecord>> rows = store.List(newest);
+    newest.limit = 1;
+    source.newest = [list, newest]() -> std::optional<std::int64_t> {
+        absl::StatusOr<std::vector<Row>> rows = list(newest);
         if (!rows.ok()) return std::nullopt;
         return rows->empty() ? 0 : rows->front().id;
     };
     return source;
 }
 
+}  // namespace
+
+EstimateFeed::Source EstimateSource(RecordStore& store) {
+    RecordQuery newest;
+    newest.with_payload = false;
+    return ListSource<EstimateRecord>([&store](const RecordQuery& q) { return store.List(q); },
+                                      newest);
+}
+
 AlertFeed::Source AlertSource(RecordStore& store) {
-    AlertFeed::Source source;
-    source.after = [&store](const std::string& container_id, std::int64_t after_id, int limit) {
-        AlertQuery query;
-        query.container_id = container_id;
-        query.after_id = after_id;
-        query.limit = limit;
-        return store.ListAlerts(query);
-    };
-    source.newest = [&store]() -> std::optional<std::int64_t> {
-        AlertQuery newest;
-        newest.limit = 1;
-        absl::StatusOr<std::vector<AlertRecord>> rows = store.ListAlerts(newest);
-        if (!rows.ok()) return std::nullopt;
-        return rows->empty() ? 0 : rows->front().id;
-    };
-    return source;
+    return ListSource<AlertRecord>([&store](const AlertQuery& q) { return store.ListAlerts(q); },
+                                   AlertQuery());
+}
+
+LoadEventFeed::Source LoadEventSource(RecordStore& store) {
+    LoadEventQuery newest;
+    newest.with_records = false;
+    return ListSource<LoadEventRecord>(
+        [&store](const LoadEventQuery& q) { return store.ListLoadEvents(q); }, newest);
 }
 
 }  // namespace soilvol::server

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <memory>
@@ -22,14 +23,17 @@ struct FeedConfig {
     std::chrono::milliseconds heartbeat{1'000};
     std::size_t max_watches = 2048;  ///< --max-watches
     int batch = 200;                 ///< records read per query
+    /// The watches of every feed given the same counter, which max_watches bounds together;
+    /// null: this feed's alone.
+    std::shared_ptr<std::atomic<std::size_t>> in_use = nullptr;
 };
 
-/// Live rows for watchers (WatchEstimates and WatchAlerts, their SSE routes): one thread reads
-/// what is new - at once after this process commits, and every poll interval for what other
-/// replicas committed - and hands each row to the watches whose container it matches, in id
+/// Live rows for watchers (WatchEstimates, WatchAlerts and WatchLoads, their SSE routes): one
+/// thread reads what is new - at once after this process commits, and every poll interval for what
+/// other replicas committed - and hands each row to the watches whose container it matches, in id
 /// order. A watch may start after a last-seen id: it first catches up from the store, so a
 /// reconnecting client loses nothing (ids increase in commit order, see RecordStore). Row is
-/// EstimateRecord or AlertRecord (each has an id and a container_id).
+/// EstimateRecord, AlertRecord or LoadEventRecord (each has an id and a container_id).
 template <typename Row>
 class RecordFeed {
   public:
@@ -51,6 +55,8 @@ class RecordFeed {
     struct Spec {
         std::string container_id;              ///< "" for every container
         std::optional<std::int64_t> after_id;  ///< resume after it; none: from now on
+        /// Rows of the container it also takes (null: all), e.g. one haul unit's.
+        std::function<bool(const Row&)> match = nullptr;
     };
     class Watch;
 
@@ -61,8 +67,8 @@ class RecordFeed {
     RecordFeed(const RecordFeed&) = delete;
     RecordFeed& operator=(const RecordFeed&) = delete;
 
-    /// A new watch; ResourceExhausted beyond max_watches. `deliver` and `ended` run on the
-    /// feed's thread.
+    /// A new watch; ResourceExhausted beyond max_watches (of every feed sharing in_use). `deliver`
+    /// and `ended` run on the feed's thread.
     absl::StatusOr<std::shared_ptr<Watch>> Start(Spec spec, Deliver deliver, Ended ended);
     /// Ends `watch` without calling its `ended` (its client left). After it returns, the
     /// watch's callbacks are not called again.
@@ -83,10 +89,13 @@ class RecordFeed {
     /// newest_ moved up to the newest id in the store (one index lookup).
     void ReadNewestId();
     void End(const std::shared_ptr<Watch>& watch, const absl::Status& status);
+    /// Removes `watch` from watches_ (under mutex_), freeing its place in in_use_.
+    void Forget(const std::shared_ptr<Watch>& watch);
 
     EstimateRecorder& recorder_;
     const Source source_;
     const Config config_;
+    const std::shared_ptr<std::atomic<std::size_t>> in_use_;
     mutable std::mutex mutex_;
     std::vector<std::shared_ptr<Watch>> watches_;
     bool stopping_ = false;
@@ -96,12 +105,15 @@ class RecordFeed {
 
 using EstimateFeed = RecordFeed<EstimateRecord>;
 using AlertFeed = RecordFeed<AlertRecord>;
+using LoadEventFeed = RecordFeed<LoadEventRecord>;
 extern template class RecordFeed<EstimateRecord>;
 extern template class RecordFeed<AlertRecord>;
+extern template class RecordFeed<LoadEventRecord>;
 
 /// The feeds' sources over a store: its estimate records (without payloads for the newest id),
-/// and its alerts.
+/// its alerts, and its load events.
 EstimateFeed::Source EstimateSource(RecordStore& store);
 AlertFeed::Source AlertSource(RecordStore& store);
+LoadEventFeed::Source LoadEventSource(RecordStore& store);
 
 }  // namespace soilvol::server

@@ -26,4 +26,14 @@ absl::StatusOr<std::unique_ptr<RecordStore>> OpenRecordStore(
         "data directory)"));
 }
 
+LoadEventRecord LoadEventOf(const LoadRecord& load, int kind, std::int64_t time_us,
+                            std::string container_id) {
+    LoadEventRecord event;
+    event.kind = kind;
+    event.time_us = time_us;
+    event.container_id = container_id.empty() ? load.body_container_id : std::move(container_id);
+    event.load = load;
+    return event;
+}
+
 }  // namespace soilvol::server

@@ -41,6 +41,41 @@ struct EstimateRecord {
     std::optional<Refusal> refusal;
 };
 
+/// One change of a load as kept (soilvol.v1.LoadEvent): kinds are the proto's LoadEventKind
+/// numbers. Written in the transaction of the change.
+struct LoadEventRecord {
+    static constexpr int kCreated = 1, kPassAdded = 2, kBodyScanned = 3, kClosed = 4;
+
+    std::int64_t id = 0;  ///< set by the store: increasing in commit order, as estimate ids
+    int kind = 0;
+    std::int64_t time_us = 0;  ///< when the change took effect
+    /// The pass's or body scan's container; the load's body container for the other kinds.
+    std::string container_id;
+    std::int64_t estimate_id = 0;  ///< the pass or body scan; 0 for none
+    /// The newest record of the load when the change was committed (set by the store): the
+    /// load's figures then are those of its records up to it.
+    std::int64_t through_estimate_id = 0;
+    LoadRecord load;  ///< as it stood right after the change
+    /// The load's records up to through_estimate_id, oldest first, with payloads (ListLoadEvents
+    /// with with_records): what its figures then are made of.
+    std::vector<EstimateRecord> records;
+};
+
+/// Which events a ListLoadEvents returns: oldest first after after_id, or (without) the newest
+/// first.
+struct LoadEventQuery {
+    std::string container_id;  ///< "" for every container
+    std::string haul_unit_id;  ///< "" for every haul unit
+    std::optional<std::int64_t> after_id;
+    int limit = 100;
+    bool with_records = true;
+};
+
+/// The event of `load` (already changed) of `kind` at `time_us`; `container_id` for a pass or
+/// body scan, else the load's body container.
+LoadEventRecord LoadEventOf(const LoadRecord& load, int kind, std::int64_t time_us,
+                            std::string container_id = {});
+
 /// Which records a List returns.
 struct RecordQuery {
     std::string container_id;     ///< "" for every container
@@ -120,6 +155,12 @@ class RecordStore {
     virtual absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
         const std::vector<std::string>& load_ids) = 0;
 
+    /// Load events (see LoadEventQuery), with their ids. Every change of a load keeps its event
+    /// in the change's transaction: CreateLoad (kCreated; kClosed for the haul unit's previous
+    /// load), Append (kPassAdded, kBodyScanned; kClosed when the record finds its load idle),
+    /// CloseLoad (kClosed when it closes one). Prune and DeleteContainer remove them as alerts.
+    virtual absl::StatusOr<std::vector<LoadEventRecord>> ListLoadEvents(
+        const LoadEventQuery& query) = 0;
     /// Alerts (see AlertQuery), with their ids.
     virtual absl::StatusOr<std::vector<AlertRecord>> ListAlerts(const AlertQuery& query) = 0;
     /// Loads whose close was not judged yet (JudgeLoad): closed ones, and open ones idle since

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
 #include "server/records/alert_sql.hpp"
+#include "server/records/load_event_sql.hpp"
 #include "server/records/record_store.hpp"
 
 namespace soilvol::server {
@@ -292,6 +293,22 @@ void BindDelivery(Statement& insert, const DeliveryRecord& d) {
     insert.Bind(9, d.delay_ms);
 }
 
+/// A load's columns from load_id to payload (as the loads table holds them) from `first` on.
+void BindLoad(Statement& statement, int first, const LoadRecord& load) {
+    statement.Bind(first, load.load_id);
+    statement.Bind(first + 1, load.haul_unit_id);
+    statement.Bind(first + 2, load.body_container_id);
+    statement.Bind(first + 3, std::int64_t{load.state});
+    statement.Bind(first + 4, std::int64_t{load.close_reason});
+    statement.Bind(first + 5, load.create_time_us);
+    statement.Bind(first + 6, load.update_time_us);
+    statement.Bind(first + 7, load.close_time_us);
+    statement.Bind(first + 8, load.last_activity_us);
+    statement.Bind(first + 9, load.revision);
+    statement.Bind(first + 10, load.request_id);
+    statement.BindBlob(first + 11, load.payload);
+}
+
 class SqliteRecordStore final : public RecordStore {
   public:
     explicit SqliteRecordStore(sqlite3* db) : db_(db) {}
@@ -308,6 +325,7 @@ class SqliteRecordStore final : public RecordStore {
         }
         SOILVOL_RETURN_IF_ERROR(Exec(kSqliteAddedIndexes));
         SOILVOL_RETURN_IF_ERROR(Exec(sql_.schema.c_str()));
+        SOILVOL_RETURN_IF_ERROR(Exec(events_sql_.schema.c_str()));
         // A database made before the rollup: made from the fine table once.
         Statement missing(db_,
                           "SELECT EXISTS (SELECT 1 FROM production) AND NOT EXISTS (SELECT 1 "
@@ -344,6 +362,7 @@ class SqliteRecordStore final : public RecordStore {
                 LoadRecord previous = LoadFrom(open);
                 CloseLoadAt(previous, LoadRecord::kNewLoad, load.create_time_us, idle_us);
                 SOILVOL_RETURN_IF_ERROR(WriteLoadState(previous));
+                SOILVOL_RETURN_IF_ERROR(KeepClosed(previous));
             }
             Statement insert(
                 db_,
@@ -352,20 +371,12 @@ class SqliteRecordStore final : public RecordStore {
                 "last_activity_us, revision, request_id, payload, passes, judged) VALUES "
                 "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, 0, 0)");
             SOILVOL_RETURN_IF_ERROR(insert.Prepared("create a load"));
-            insert.Bind(1, load.load_id);
-            insert.Bind(2, load.haul_unit_id);
-            insert.Bind(3, load.body_container_id);
-            insert.Bind(4, std::int64_t{load.state});
-            insert.Bind(5, std::int64_t{load.close_reason});
-            insert.Bind(6, load.create_time_us);
-            insert.Bind(7, load.update_time_us);
-            insert.Bind(8, load.close_time_us);
-            insert.Bind(9, load.last_activity_us);
-            insert.Bind(10, load.revision);
-            insert.Bind(11, load.request_id);
-            insert.BindBlob(12, load.payload);
+            BindLoad(insert, 1, load);
             SOILVOL_RETURN_IF_ERROR(insert.Step("create a load").status());
             load.seq = sqlite3_last_insert_rowid(db_);
+            LoadEventRecord created =
+                LoadEventOf(load, LoadEventRecord::kCreated, load.create_time_us);
+            SOILVOL_RETURN_IF_ERROR(InsertLoadEvent(created));
             return absl::OkStatus();
         });
     }
@@ -410,6 +421,7 @@ class SqliteRecordStore final : public RecordStore {
             SOILVOL_RETURN_IF_ERROR(CheckLoadRevision(*load, revision));
             if (CloseLoadAt(*load, LoadRecord::kExplicit, now_us, idle_us)) {
                 SOILVOL_RETURN_IF_ERROR(WriteLoadState(*load));
+                SOILVOL_RETURN_IF_ERROR(KeepClosed(*load));
             }
             closed = *std::move(load);
             return absl::OkStatus();
@@ -440,19 +452,10 @@ class SqliteRecordStore final : public RecordStore {
     absl::StatusOr<std::vector<EstimateRecord>> LoadEstimates(
         const std::vector<std::string>& load_ids) override {
         std::lock_guard<std::mutex> lock(mutex_);
-        Statement select(db_, absl::StrCat("SELECT ", kColumns,
-                                           ", payload FROM estimates WHERE "
-                                           "load_id = ?1 AND load_id != '' ORDER BY id"));
-        SOILVOL_RETURN_IF_ERROR(select.Prepared("read a load's records"));
         std::vector<EstimateRecord> out;
         for (const std::string& load_id : load_ids) {
-            select.Bind(1, load_id);
-            while (true) {
-                SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("read a load's records"));
-                if (!row) break;
-                out.push_back(RecordFrom(select, true));
-            }
-            select.Reset();
+            SOILVOL_RETURN_IF_ERROR(
+                ReadLoadRecords(load_id, std::numeric_limits<std::int64_t>::max(), out));
         }
         return out;
     }
@@ -517,7 +520,8 @@ class SqliteRecordStore final : public RecordStore {
             1,
             now_us - std::chrono::duration_cast<std::chrono::microseconds>(policy.max_age).count());
         SOILVOL_RETURN_IF_ERROR(old_loads.Step("prune loads by age").status());
-        for (const std::string* sql : {&sql_.prune_alerts, &sql_.prune_deliveries}) {
+        for (const std::string* sql :
+             {&sql_.prune_alerts, &sql_.prune_deliveries, &events_sql_.prune_events}) {
             Statement prune(db_, *sql);
             SOILVOL_RETURN_IF_ERROR(prune.Prepared("prune alerts by age"));
             prune.Bind(
@@ -560,10 +564,12 @@ class SqliteRecordStore final : public RecordStore {
             purge.Bind(1, container_id);
             SOILVOL_RETURN_IF_ERROR(purge.Step("delete a container's records").status());
             deleted = sqlite3_changes(db_);
-            Statement alerts(db_, sql_.purge_alerts);
-            SOILVOL_RETURN_IF_ERROR(alerts.Prepared("delete a container's alerts"));
-            alerts.Bind(1, container_id);
-            SOILVOL_RETURN_IF_ERROR(alerts.Step("delete a container's alerts").status());
+            for (const std::string* sql : {&sql_.purge_alerts, &events_sql_.purge_events}) {
+                Statement alerts(db_, *sql);
+                SOILVOL_RETURN_IF_ERROR(alerts.Prepared("delete a container's alerts"));
+                alerts.Bind(1, container_id);
+                SOILVOL_RETURN_IF_ERROR(alerts.Step("delete a container's alerts").status());
+            }
             Statement cells(db_, "DELETE FROM production WHERE container_id = ?1");
             SOILVOL_RETURN_IF_ERROR(cells.Prepared("delete a container's production"));
             cells.Bind(1, container_id);
@@ -572,6 +578,36 @@ class SqliteRecordStore final : public RecordStore {
         });
         SOILVOL_RETURN_IF_ERROR(done);
         return deleted;
+    }
+
+    absl::StatusOr<std::vector<LoadEventRecord>> ListLoadEvents(
+        const LoadEventQuery& query) override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        Statement select(db_, query.after_id ? events_sql_.list_after : events_sql_.list_newest);
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("list load events"));
+        select.Bind(1, query.after_id.value_or(0));
+        select.Bind(2, query.container_id);
+        select.Bind(3, query.haul_unit_id);
+        select.Bind(4, static_cast<std::int64_t>(query.limit));
+        std::vector<LoadEventRecord> out;
+        while (true) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("list load events"));
+            if (!row) break;
+            LoadEventRecord& event = out.emplace_back();
+            event.load = LoadFrom(select);
+            event.id = select.Int(kLoadEventIdColumn);
+            event.kind = static_cast<int>(select.Int(kLoadEventIdColumn + 1));
+            event.time_us = select.Int(kLoadEventIdColumn + 2);
+            event.container_id = select.Text(kLoadEventIdColumn + 3);
+            event.estimate_id = select.Int(kLoadEventIdColumn + 4);
+            event.through_estimate_id = select.Int(kLoadEventIdColumn + 5);
+        }
+        for (LoadEventRecord& event : out) {
+            if (!query.with_records || event.through_estimate_id == 0) continue;
+            SOILVOL_RETURN_IF_ERROR(
+                ReadLoadRecords(event.load.load_id, event.through_estimate_id, event.records));
+        }
+        return out;
     }
 
     absl::StatusOr<std::vector<AlertRecord>> ListAlerts(const AlertQuery& query) override {
@@ -744,6 +780,22 @@ class SqliteRecordStore final : public RecordStore {
         return status;
     }
 
+    /// The records of `load_id` up to the id `upto`, oldest first, appended to `out`.
+    absl::Status ReadLoadRecords(const std::string& load_id, std::int64_t upto,
+                                 std::vector<EstimateRecord>& out) {
+        Statement select(db_, absl::StrCat("SELECT ", kColumns,
+                                           ", payload FROM estimates WHERE load_id = ?1 AND "
+                                           "load_id != '' AND id <= ?2 ORDER BY id"));
+        SOILVOL_RETURN_IF_ERROR(select.Prepared("read a load's records"));
+        select.Bind(1, load_id);
+        select.Bind(2, upto);
+        while (true) {
+            SOILVOL_ASSIGN_OR_RETURN(const bool row, select.Step("read a load's records"));
+            if (!row) return absl::OkStatus();
+            out.push_back(RecordFrom(select, true));
+        }
+    }
+
     absl::StatusOr<std::optional<LoadRecord>> ReadLoad(const std::string& load_id) {
         Statement select(db_,
                          absl::StrCat("SELECT ", kLoadColumns, " FROM loads WHERE load_id = ?1"));
@@ -782,6 +834,7 @@ class SqliteRecordStore final : public RecordStore {
                 absl::StrCat("load_id: load '", link.load_id, "' not found"));
         }
         const bool idled = ApplyIdleClose(*load, record.create_time_us, link.idle_us);
+        if (idled) SOILVOL_RETURN_IF_ERROR(KeepClosed(*load));
         absl::Status join = CheckJoin(*load, link);
         if (join.ok()) *joined = JoinLoadRecord(*load, link, record.create_time_us);
         if (join.ok() || idled) SOILVOL_RETURN_IF_ERROR(WriteLoadState(*load));
@@ -810,6 +863,38 @@ class SqliteRecordStore final : public RecordStore {
             alert.estimate_id = record.id;
             SOILVOL_RETURN_IF_ERROR(InsertAlert(alert));
         }
+        return absl::OkStatus();
+    }
+
+    /// The event of a load just closed.
+    absl::Status KeepClosed(const LoadRecord& load) {
+        LoadEventRecord event = LoadEventOf(load, LoadEventRecord::kClosed, load.close_time_us);
+        return InsertLoadEvent(event);
+    }
+
+    /// The event of a kept record that joined its load.
+    absl::Status KeepJoined(const EstimateRecord& record, const JoinedLoad& joined) {
+        LoadEventRecord event = LoadEventOf(
+            joined.load,
+            joined.body_scan ? LoadEventRecord::kBodyScanned : LoadEventRecord::kPassAdded,
+            record.create_time_us, record.container_id);
+        event.estimate_id = record.id;
+        return InsertLoadEvent(event);
+    }
+
+    absl::Status InsertLoadEvent(LoadEventRecord& event) {
+        const LoadRecord& load = event.load;
+        Statement insert(db_, events_sql_.insert_event);
+        SOILVOL_RETURN_IF_ERROR(insert.Prepared("keep a load event"));
+        insert.Bind(1, std::int64_t{event.kind});
+        insert.Bind(2, event.time_us);
+        insert.Bind(3, event.container_id);
+        insert.Bind(4, event.estimate_id);
+        insert.Bind(5, load.seq);
+        BindLoad(insert, 6, load);
+        insert.Bind(18, load.passes);
+        SOILVOL_RETURN_IF_ERROR(insert.Step("keep a load event").status());
+        event.id = insert.Int(0);
         return absl::OkStatus();
     }
 
@@ -872,6 +957,7 @@ class SqliteRecordStore final : public RecordStore {
             record.id = sqlite3_last_insert_rowid(db_);
             insert.Reset();
             SOILVOL_RETURN_IF_ERROR(KeepAlerts(record));
+            if (record.load) SOILVOL_RETURN_IF_ERROR(KeepJoined(record, joined));
             if (!joined.body_scan) {
                 SOILVOL_RETURN_IF_ERROR(AddProduction(fine, rollup, record, joined));
             }
@@ -914,6 +1000,7 @@ class SqliteRecordStore final : public RecordStore {
     sqlite3* db_;
     std::mutex mutex_;
     const AlertSql sql_{"", true};
+    const LoadEventSql events_sql_{"", true};
 };
 
 }  // namespace

@@ -2,7 +2,11 @@
 $SOILVOL_TEST_POSTGRES_URL; without it the PostgreSQL class is skipped, except under CI=true):
 a load's life over gRPC, REST and the CLI - passes, running totals that equal the sum of the
 records with the combined sigma computed here independently, the status against the target,
-the body scan's reconciliation, the three ways a load closes - and the errors."""
+the body scan's reconciliation, the three ways a load closes - and the errors; WatchLoads over
+gRPC, Server-Sent Events and the CLI: every change of a load's life in order, resumed after an
+event id."""
+import http.client
+import json
 import math
 import os
 import subprocess
@@ -28,6 +32,20 @@ CLI = os.environ.get("SOILVOL_CLI_BIN", "")
 
 def fill_scan(fill_m, seed):
     return pb.Scan(cloud=pb.CloudScan(data=box_scene.encode_ply(box_scene.box_scan(fill_m, seed=seed))))
+
+
+def sse_loads(stream, count):
+    """The first `count` `load` events of a Server-Sent Events stream: (id, JSON) each."""
+    events, event_id, event = [], None, None
+    while len(events) < count:
+        line = stream.readline().decode().rstrip("\n")
+        if line.startswith("id: "):
+            event_id = line[4:]
+        elif line.startswith("event: "):
+            event = line[7:]
+        elif line.startswith("data: ") and event == "load":
+            events.append((event_id, json.loads(line[6:])))
+    return events
 
 
 def combined_sigma(passes):
@@ -146,6 +164,106 @@ class LoadsContract:
         self.assertIn("idle", refused.exception.details())
         self.assertEqual(list(self.stub.ListLoads(pb.ListLoadsRequest(
             haul_unit_id=truck, state=pb.LOAD_STATE_OPEN), timeout=30).loads), [])
+
+    def open_sse(self, query, headers=None):
+        sse = http.client.HTTPConnection("127.0.0.1", self.server.http_port, timeout=60)
+        self.addCleanup(sse.close)
+        sse.request("GET", "/v1/loads:watch?" + query, headers=headers or {})
+        stream = sse.getresponse()
+        self.assertEqual(stream.status, 200)
+        self.assertEqual(stream.getheader("Content-Type"), "text/event-stream")
+        return stream
+
+    def test_watch_sees_every_change_of_a_loads_life_in_order_and_resumes(self):
+        truck = self.prefix + "-truck-w"
+        live = self.stub.WatchLoads(pb.WatchLoadsRequest(haul_unit_id=truck), timeout=60)
+        stream = self.open_sse(f"haulUnitId={truck}")
+        time.sleep(0.5)  # the feed places new watches at its next round
+        first = self.create(truck, body_container_id=self.body)
+        passes = [self.scan(self.bucket, 0.1, first.load_id, seed=31),
+                  self.scan(self.bucket, 0.12, first.load_id, seed=32)]
+        self.stub.CloseLoad(pb.CloseLoadRequest(load_id=first.load_id), timeout=30)
+        body = self.scan(self.body, 0.22, first.load_id, seed=33)
+        second = self.create(truck)
+        third = self.create(truck)  # closes the second (NEW_LOAD)
+        K = pb.LoadEventKind
+        expected = [(K.LOAD_EVENT_KIND_CREATED, first.load_id),
+                    (K.LOAD_EVENT_KIND_PASS_ADDED, first.load_id),
+                    (K.LOAD_EVENT_KIND_PASS_ADDED, first.load_id),
+                    (K.LOAD_EVENT_KIND_CLOSED, first.load_id),
+                    (K.LOAD_EVENT_KIND_BODY_SCANNED, first.load_id),
+                    (K.LOAD_EVENT_KIND_CREATED, second.load_id),
+                    (K.LOAD_EVENT_KIND_CLOSED, second.load_id),
+                    (K.LOAD_EVENT_KIND_CREATED, third.load_id),
+                    (K.LOAD_EVENT_KIND_CLOSED, third.load_id)]  # idle: by the server's judge
+        events = [next(live) for _ in expected]
+        live.cancel()
+        self.assertEqual([(e.kind, e.load.load_id) for e in events], expected)
+        ids = [int(e.event_id) for e in events]
+        self.assertEqual(ids, sorted(set(ids)))
+        # Each event carries the load as it stood right after its change.
+        self.assertEqual([e.load.pass_count for e in events], [0, 1, 2, 2, 2, 0, 0, 0, 0])
+        self.assertEqual([e.estimate_id for e in events[1:3]], [p.estimate_id for p in passes])
+        self.assertEqual([p.estimate_id for p in events[2].load.passes],
+                         [p.estimate_id for p in passes])
+        self.assertAlmostEqual(events[3].load.volume_m3, sum(p.volume_m3 for p in passes),
+                               places=12)
+        self.assertEqual(events[3].load.close_reason, pb.LOAD_CLOSE_REASON_EXPLICIT)
+        self.assertFalse(events[3].load.HasField("reconciliation"))  # not yet scanned
+        self.assertEqual(events[4].estimate_id, body.estimate_id)
+        self.assertEqual(events[4].load.reconciliation.estimate_id, body.estimate_id)
+        self.assertEqual(events[6].load.close_reason, pb.LOAD_CLOSE_REASON_NEW_LOAD)
+        self.assertEqual(events[8].load.close_reason, pb.LOAD_CLOSE_REASON_IDLE)
+        self.assertAlmostEqual(events[8].time.ToMicroseconds() - third.create_time.ToMicroseconds(),
+                               IDLE_S * 1e6, delta=1000)
+        self.assertEqual(events[8].load.etag, self.stub.GetLoad(
+            pb.GetLoadRequest(load_id=third.load_id), timeout=30).etag)
+        # The same events as Server-Sent Events, the event id the SSE id.
+        sse = sse_loads(stream, len(events))
+        self.assertEqual([i for i, _ in sse], [e.event_id for e in events])
+        self.assertEqual([d["kind"] for _, d in sse], [K.Name(k) for k, _ in expected])
+        self.assertEqual(sse[2][1]["load"]["passCount"], 2)
+
+        # Resumed after an id: the rest, from the store, on both transports.
+        resumed = self.stub.WatchLoads(pb.WatchLoadsRequest(
+            haul_unit_id=truck, after_event_id=events[3].event_id), timeout=60)
+        self.assertEqual([next(resumed).event_id for _ in events[4:]],
+                         [e.event_id for e in events[4:]])
+        resumed.cancel()
+        again = sse_loads(self.open_sse(f"haulUnitId={truck}",
+                                        {"Last-Event-ID": events[3].event_id}), 5)
+        self.assertEqual([i for i, _ in again], [e.event_id for e in events[4:]])
+        # Haul unit and container together: this truck's passes of the bucket only.
+        of_bucket = self.stub.WatchLoads(pb.WatchLoadsRequest(
+            haul_unit_id=truck, container_id=self.bucket, after_event_id=events[0].event_id),
+            timeout=60)
+        self.assertEqual([next(of_bucket).event_id for _ in range(2)],
+                         [e.event_id for e in events[1:3]])
+        of_bucket.cancel()
+        if CLI:
+            done = subprocess.run(
+                [CLI, "--server", self.server.grpc_target, "loads", "watch", "--haul-unit", truck,
+                 "--after", events[0].event_id, "--count", "3"],
+                capture_output=True, text=True, timeout=60)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            lines = done.stdout.splitlines()
+            self.assertEqual([line.split()[0] for line in lines],
+                             [e.event_id for e in events[1:4]])
+            self.assertIn("pass_added", lines[0])
+            self.assertIn("closed (explicit)", lines[2])
+
+    def test_watch_refuses_bad_filters(self):
+        for request, field in ((pb.WatchLoadsRequest(after_event_id="x"), "after_event_id"),
+                               (pb.WatchLoadsRequest(haul_unit_id="a b"), "haul_unit_id"),
+                               (pb.WatchLoadsRequest(container_id="../x"), "container_id")):
+            with self.subTest(field=field):
+                with self.assertRaises(grpc.RpcError) as error:
+                    next(self.stub.WatchLoads(request, timeout=30))
+                self.assertEqual(error.exception.code(), CODE.INVALID_ARGUMENT)
+                self.assertTrue(error.exception.details().startswith(field),
+                                error.exception.details())
+        status, body = self.server.rest("GET", "/v1/loads:watch?afterEventId=-5")
+        self.assertEqual(status, 400, body)
 
     def test_create_is_idempotent_by_request_id(self):
         truck = self.prefix + "-truck-3"

@@ -70,6 +70,12 @@ class WatchSlotsTest(unittest.TestCase):
             next(self.stub.WatchEstimates(pb.WatchEstimatesRequest(container_id=self.cid),
                                           timeout=10))
         self.assertEqual(ctx.exception.code(), grpc.StatusCode.RESOURCE_EXHAUSTED)
+        # The limit is one for every kind of watch: alerts and loads are refused too.
+        for watch, request in ((self.stub.WatchAlerts, pb.WatchAlertsRequest()),
+                               (self.stub.WatchLoads, pb.WatchLoadsRequest())):
+            with self.assertRaises(grpc.RpcError) as ctx:
+                next(watch(request, timeout=10))
+            self.assertEqual(ctx.exception.code(), grpc.StatusCode.RESOURCE_EXHAUSTED)
         # Two browsers close their tabs, the gRPC client cancels: their slots come back.
         for reader in readers[:2]:
             reader.close()

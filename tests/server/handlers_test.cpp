@@ -66,7 +66,8 @@ class HandlersTest : public ::testing::Test {
         auto store = EntryStore::Open(dir_.path());
         ASSERT_TRUE(store.ok()) << store.status();
         store_ = *std::move(store);
-        handlers_ = std::make_unique<SoilVolumeHandlers>(*store_, nullptr, nullptr, nullptr);
+        handlers_ =
+            std::make_unique<SoilVolumeHandlers>(*store_, nullptr, nullptr, nullptr, nullptr);
     }
 
     absl::StatusOr<v1::Container> Register(const std::string& id, const std::string& request_id,

@@ -48,6 +48,7 @@ TEST(HttpRoutes, AnnotationsGiveTheDocumentedContract) {
         "GET /v1/loads/{load_id} GetLoad",
         "GET /v1/loads ListLoads",
         "POST /v1/loads/{load_id}:close CloseLoad",
+        "GET /v1/loads:watch WatchLoads",
         "GET /v1/production GetProduction",
         "GET /v1/alerts ListAlerts",
         "GET /v1/alerts:watch WatchAlerts",

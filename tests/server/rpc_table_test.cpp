@@ -21,7 +21,8 @@ class RpcTableTest : public ::testing::Test {
         auto opened = EntryStore::Open(dir_.path());
         ASSERT_TRUE(opened.ok()) << opened.status();
         store_ = *std::move(opened);
-        handlers_ = std::make_unique<SoilVolumeHandlers>(*store_, nullptr, nullptr, nullptr);
+        handlers_ =
+            std::make_unique<SoilVolumeHandlers>(*store_, nullptr, nullptr, nullptr, nullptr);
     }
 
     ScratchDir dir_;

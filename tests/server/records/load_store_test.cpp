@@ -5,6 +5,7 @@
 #include <thread>
 #include <tuple>
 
+#include "load_fixtures.hpp"
 #include "server/records/load_record.hpp"
 #include "server/records/record_store.hpp"
 #include "test_databases.hpp"
@@ -13,27 +14,6 @@ namespace soilvol::server {
 namespace {
 
 constexpr std::int64_t kMinute = 60'000'000;
-
-LoadRecord NewLoad(const std::string& id, const std::string& haul_unit, std::int64_t time_us) {
-    LoadRecord load;
-    load.load_id = id;
-    load.haul_unit_id = haul_unit;
-    load.body_container_id = "body";
-    load.create_time_us = load.update_time_us = load.last_activity_us = time_us;
-    load.request_id = "req-" + id;
-    load.payload = std::string("client\0fields", 13);
-    return load;
-}
-
-EstimateRecord Pass(const std::string& load_id, std::int64_t time_us, int role = LoadLink::kPass,
-                    std::int64_t idle_us = 0) {
-    EstimateRecord record;
-    record.container_id = role == LoadLink::kPass ? "bucket" : "body";
-    record.create_time_us = time_us;
-    record.payload = "p";
-    record.load = LoadLink{load_id, role, idle_us};
-    return record;
-}
 
 class LoadStoreTest : public ::testing::TestWithParam<std::string> {};
 

@@ -170,6 +170,82 @@ TEST_P(EstimateFeedTest, SlowWatchesEndAndShutdownEndsTheRest) {
     EXPECT_TRUE(absl::IsUnavailable(*rest.ended));
 }
 
+TEST_P(EstimateFeedTest, ALoadWatchOfOneHaulUnitCatchesUpThenGetsItsNewEventsInOrder) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    auto create = [&store](const std::string& id, const std::string& haul_unit) {
+        LoadRecord load;
+        load.load_id = id;
+        load.haul_unit_id = haul_unit;
+        load.payload = "x";
+        return store->CreateLoad(load, 0);
+    };
+    ASSERT_TRUE(create("l-1", "truck-1").ok());
+    ASSERT_TRUE(create("l-2", "truck-2").ok());
+    ASSERT_TRUE(create("l-3", "truck-1").ok());  // closes l-1: two events of truck-1
+    std::mutex mutex;
+    std::vector<std::string> seen;  // "<load> <kind>"
+    LoadEventFeed feed(recorder, LoadEventSource(*store), {});
+    LoadEventFeed::Spec spec;
+    spec.after_id = 0;
+    spec.match = [](const LoadEventRecord& row) { return row.load.haul_unit_id == "truck-1"; };
+    auto watch = feed.Start(
+        spec,
+        [&](const LoadEventRecord* row) {
+            std::lock_guard<std::mutex> lock(mutex);
+            if (row != nullptr) seen.push_back(row->load.load_id + " " + std::to_string(row->kind));
+            return true;
+        },
+        [](const absl::Status&) {});
+    ASSERT_TRUE(watch.ok());
+    ASSERT_TRUE(create("l-4", "truck-2").ok());
+    ASSERT_TRUE(store->CloseLoad("l-3", 1, 0, std::nullopt).ok());
+    const std::vector<std::string> expected = {"l-1 1", "l-1 4", "l-3 1", "l-3 4"};
+    for (int i = 0; i < 100; ++i) {
+        {
+            std::lock_guard<std::mutex> lock(mutex);
+            if (seen.size() >= expected.size()) break;
+        }
+        std::this_thread::sleep_for(50ms);
+    }
+    feed.Stop(*watch);
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_EQ(seen, expected);
+}
+
+TEST_P(EstimateFeedTest, FeedsSharingACounterShareOneLimit) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    FeedConfig config;
+    config.max_watches = 2;
+    config.in_use = std::make_shared<std::atomic<std::size_t>>(0);
+    Inbox inbox;
+    EstimateFeed estimates(recorder, EstimateSource(*store), config);
+    LoadEventFeed loads(recorder, LoadEventSource(*store), config);
+    auto quiet = [](const LoadEventRecord*) { return true; };
+    auto ended = [](const absl::Status&) {};
+    auto first = estimates.Start({"", std::nullopt}, inbox.Deliver(), inbox.Ended());
+    auto second = loads.Start({}, quiet, ended);
+    ASSERT_TRUE(first.ok() && second.ok());
+    EXPECT_TRUE(absl::IsResourceExhausted(loads.Start({}, quiet, ended).status()));
+    EXPECT_TRUE(absl::IsResourceExhausted(
+        estimates.Start({"", std::nullopt}, inbox.Deliver(), inbox.Ended()).status()));
+    estimates.Stop(*first);
+    estimates.Stop(*first);  // twice: freed once
+    auto third = loads.Start({}, quiet, ended);
+    ASSERT_TRUE(third.ok());
+    EXPECT_EQ(*config.in_use, 2u);
+    EXPECT_TRUE(absl::IsResourceExhausted(loads.Start({}, quiet, ended).status()));
+    loads.Shutdown();  // its two watches end: their places come back
+    EXPECT_EQ(*config.in_use, 0u);
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, EstimateFeedTest, ::testing::Values("sqlite", "postgresql"),
                          [](const auto& param_info) { return param_info.param; });
 

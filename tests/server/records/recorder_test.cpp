@@ -169,6 +169,9 @@ class DownStore final : public RecordStore {
         const std::vector<std::string>&) override {
         return absl::UnavailableError("connection refused");
     }
+    absl::StatusOr<std::vector<LoadEventRecord>> ListLoadEvents(const LoadEventQuery&) override {
+        return absl::UnavailableError("connection refused");
+    }
     absl::StatusOr<std::vector<AlertRecord>> ListAlerts(const AlertQuery&) override {
         return absl::UnavailableError("connection refused");
     }
