@@ -8,6 +8,9 @@ watchers (asyncio, one connection each, in this process), and estimates made mea
   the record is committed, and can be delivered, before the answer is).
 - Cost to the estimate path: soilvol-load's sequential gRPC round trips (20k points, 8 s) with no
   watcher, then with the N watchers open and receiving its estimates, alternating ROUNDS times.
+- Delivery under that load: every watcher must also receive each of soilvol-load's estimates;
+  the delay of each is from the record's create_time (the server's clock, the same machine's)
+  to its arrival, so it includes the estimate's own time (tens of milliseconds).
 
 The watchers stand for screens on other machines: they run in a child process at nice 19, so
 that on this machine's cores they take what the server leaves (their CPU is reported). Prints
@@ -90,7 +93,7 @@ class Watcher:
                 if line.startswith(b": watching"):
                     self.ready.set()
                 elif line.startswith(b"id: "):
-                    self.seen[line[4:].strip().decode()] = time.monotonic()
+                    self.seen[line[4:].strip().decode()] = time.time()
         finally:
             writer.close()
 
@@ -105,7 +108,7 @@ def make_estimates(server, count, answered):
                            estimate_ply(0.05 + 0.3 * i / max(count, 1)),
                            "application/octet-stream")
         estimate_id = re.search(rb'"estimateId":\s*"(\d+)"', body).group(1).decode()
-        answered[estimate_id] = time.monotonic()
+        answered[estimate_id] = time.time()
         time.sleep(0.2)
 
 
@@ -143,7 +146,25 @@ async def watch(port, count):
     await asyncio.gather(*tasks, return_exceptions=True)
 
 
+def created_times(server):
+    """{estimate id: its create_time [s since the epoch]} of every record kept."""
+    created, token = {}, ""
+    while True:
+        with urllib.request.urlopen(f"http://127.0.0.1:{server.http_port}/v1/containers/-/estimates"
+                                    f"?pageSize=1000&pageToken={token}", timeout=60) as answer:
+            page = json.loads(answer.read())
+        for e in page.get("estimates", []):
+            stamp = e["createTime"].rstrip("Z")
+            whole, _, fraction = stamp.partition(".")
+            created[e["estimateId"]] = (time.mktime(time.strptime(whole, "%Y-%m-%dT%H:%M:%S"))
+                                        - time.timezone + float("0." + (fraction or "0")))
+        token = page.get("nextPageToken", "")
+        if not token:
+            return created
+
+
 def measure(build, server, count, estimates):
+    before = set(created_times(server))
     child = subprocess.Popen(
         ["nice", "-n", "19", sys.executable, os.path.abspath(__file__), "--child-port",
          str(server.http_port), "--watchers", str(count)],
@@ -160,7 +181,11 @@ def measure(build, server, count, estimates):
     child.wait(timeout=60)
     seen = report["seen"]
     delays = [max(0.0, w[i] - t) for w in seen for i, t in answered.items() if i in w]
-    return delays, count * len(answered) - len(delays), p50s
+    loaded = {i: t for i, t in created_times(server).items()
+              if i not in answered and i not in before}
+    under_load = [w[i] - t for w in seen for i, t in loaded.items() if i in w]
+    return (delays, count * len(answered) - len(delays), p50s, under_load,
+            count * len(loaded) - len(under_load))
 
 
 def main():
@@ -175,8 +200,12 @@ def main():
         ).encode(), "application/json")
         rows = []
         for count in args.watchers:
-            delays, missing, p50s = measure(args.build, server, count, args.estimates)
+            delays, missing, p50s, loaded, loaded_missing = measure(args.build, server, count,
+                                                                    args.estimates)
             delays.sort()
+            loaded.sort()
+            lq = (lambda f: 1000 * loaded[min(len(loaded) - 1, int(f * len(loaded)))]
+                  if loaded else float("nan"))
             q = (lambda f: 1000 * delays[min(len(delays) - 1, int(f * len(delays)))]
                  if delays else float("nan"))
             p50 = statistics.median(p for p, _, _ in p50s)
@@ -187,17 +216,26 @@ def main():
                   f"delay_max_ms={1000 * max(delays, default=float('nan')):.1f} "
                   f"estimate_p50_ms={' '.join(f'{p:.1f}' for p, _, _ in p50s)} "
                   f"server_cpu_ms_per_estimate={server_ms:.1f} "
-                  f"watchers_cpu_ms_per_estimate={watcher_ms:.1f}", flush=True)
+                  f"watchers_cpu_ms_per_estimate={watcher_ms:.1f} "
+                  f"under_load_deliveries={len(loaded)} under_load_missing={loaded_missing} "
+                  f"under_load_delay_p50_ms={lq(0.5):.1f} under_load_delay_p99_ms={lq(0.99):.1f} "
+                  f"under_load_delay_max_ms={1000 * max(loaded, default=float('nan')):.1f}",
+                  flush=True)
             rows.append((count, len(delays), missing, q(0.5), q(0.99),
-                         1000 * max(delays, default=float("nan")), p50, server_ms, watcher_ms))
+                         1000 * max(delays, default=float("nan")), p50, server_ms, watcher_ms,
+                         len(loaded), loaded_missing, lq(0.5), lq(0.99),
+                         1000 * max(loaded, default=float("nan"))))
         base = rows[0][6]
         print("| watchers | deliveries (missing) | delay p50 / p99 / max ms | estimate p50 ms "
               "(20k points, gRPC) | vs no watcher | server CPU ms per estimate | watchers' CPU "
-              "ms per estimate |")
-        print("|---|---|---|---|---|---|---|")
-        for count, n, missing, d50, d99, dmax, p50, server_ms, watcher_ms in rows:
+              "ms per estimate | under load: deliveries (missing) | under load: delay p50 / p99 / "
+              "max ms |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for (count, n, missing, d50, d99, dmax, p50, server_ms, watcher_ms, ln, lmissing, l50,
+             l99, lmax) in rows:
             print(f"| {count} | {n} ({missing}) | {d50:.1f} / {d99:.1f} / {dmax:.1f} | "
-                  f"{p50:.1f} | {p50 / base:.2f}x | {server_ms:.1f} | {watcher_ms:.1f} |")
+                  f"{p50:.1f} | {p50 / base:.2f}x | {server_ms:.1f} | {watcher_ms:.1f} | "
+                  f"{ln} ({lmissing}) | {l50:.1f} / {l99:.1f} / {lmax:.1f} |")
     finally:
         server.close()
 

@@ -1,5 +1,7 @@
 #include "server/http/http_server.hpp"
 
+#include <pthread.h>
+
 #include <algorithm>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/strand.hpp>
@@ -136,7 +138,10 @@ absl::StatusOr<int> HttpServer::Start() {
     impl_->retry.emplace(impl_->acceptor->get_executor());
     impl_->Accept();
     for (int i = 0; i < std::max(1, s.options.io_threads); ++i) {
-        impl_->threads.emplace_back([this] { impl_->io.run(); });
+        impl_->threads.emplace_back([this] {
+            pthread_setname_np(pthread_self(), "soilvol-http");  // top -H, perf, gdb
+            impl_->io.run();
+        });
     }
     impl_->started = true;
     return bound;

@@ -1,5 +1,7 @@
 #include "server/records/record_feed.hpp"
 
+#include <pthread.h>
+
 #include <algorithm>
 #include <type_traits>
 
@@ -187,6 +189,7 @@ void RecordFeed<Row>::DeliverNew(const std::vector<std::shared_ptr<Watch>>& watc
 
 template <typename Row>
 void RecordFeed<Row>::Run() {
+    pthread_setname_np(pthread_self(), "soilvol-feed");  // top -H, perf, gdb
     std::int64_t seen_local = 0;
     while (true) {
         const std::int64_t seen_before = seen_local;
