@@ -209,10 +209,12 @@ absl::Status OpenRecords(ServerParts& p) {
         SOILVOL_ASSIGN_OR_RETURN(p.webhooks, LoadWebhooks(o.webhooks_file));
     }
     p.metrics.SetRecordsProbe(
-        p.records->kind(), [recorder = p.recorder.get(), feed = p.feed.get()] {
+        p.records->kind(), [recorder = p.recorder.get(), estimates = p.feed.get(),
+                            alerts = p.alert_feed.get(), loads = p.load_feed.get()] {
             const EstimateRecorder::Stats stats = recorder->stats();
-            return Metrics::RecordFigures{stats.records, stats.batches, stats.failures,
-                                          stats.pruned,  stats.queued,  feed->watches()};
+            return Metrics::RecordFigures{stats.records,     stats.batches,   stats.failures,
+                                          stats.pruned,      stats.queued,    estimates->watches(),
+                                          alerts->watches(), loads->watches()};
         });
     return absl::OkStatus();
 }

@@ -159,7 +159,9 @@ struct Metrics::Impl {
     prometheus::Counter* record_failures = nullptr;
     prometheus::Counter* records_pruned = nullptr;
     prometheus::Gauge* records_queued = nullptr;
-    prometheus::Gauge* watches = nullptr;
+    prometheus::Gauge* estimate_watches = nullptr;
+    prometheus::Gauge* alert_watches = nullptr;
+    prometheus::Gauge* load_watches = nullptr;
 
     prometheus::Counter& MakeCounter(const std::string& name, const std::string& help,
                                      const std::string& store) {
@@ -182,7 +184,9 @@ struct Metrics::Impl {
         advance(record_failures, records_seen.failures, now.failures);
         advance(records_pruned, records_seen.pruned, now.pruned);
         records_queued->Set(static_cast<double>(now.queued));
-        watches->Set(static_cast<double>(now.watches));
+        estimate_watches->Set(static_cast<double>(now.estimate_watches));
+        alert_watches->Set(static_cast<double>(now.alert_watches));
+        load_watches->Set(static_cast<double>(now.load_watches));
     }
 
     prometheus::Gauge& MakeGauge(const std::string& name, const std::string& help) {
@@ -245,8 +249,15 @@ void Metrics::SetRecordsProbe(std::string store, std::function<RecordFigures()> 
                                       "Estimate records removed by the retention policy", store);
     m.records_queued =
         &m.MakeGauge("soilvol_records_queued", "Estimate records waiting for their commit");
-    m.watches = &m.MakeGauge("soilvol_estimate_watches",
-                             "Open WatchEstimates calls and Server-Sent Event streams");
+    auto& watches = prometheus::BuildGauge()
+                        .Name("soilvol_watches")
+                        .Help(
+                            "Open watches (gRPC calls and Server-Sent Event streams) by feed; "
+                            "--max-watches bounds their sum")
+                        .Register(*m.registry);
+    m.estimate_watches = &watches.Add({{"feed", "estimates"}});
+    m.alert_watches = &watches.Add({{"feed", "alerts"}});
+    m.load_watches = &watches.Add({{"feed", "loads"}});
     m.records_probe = std::move(probe);
 }
 

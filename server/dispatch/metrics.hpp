@@ -45,12 +45,13 @@ class Metrics {
     /// What the estimate records did since the server started, read at each scrape.
     struct RecordFigures {
         std::uint64_t written = 0, batches = 0, failures = 0, pruned = 0;
-        std::size_t queued = 0;   ///< waiting for their commit
-        std::size_t watches = 0;  ///< open WatchEstimates calls and SSE streams
+        std::size_t queued = 0;  ///< waiting for their commit
+        /// open watches (gRPC calls and SSE streams) of estimates, alerts and loads
+        std::size_t estimate_watches = 0, alert_watches = 0, load_watches = 0;
     };
     /// soilvol_records_written_total, soilvol_record_batches_total,
     /// soilvol_record_failures_total and soilvol_records_pruned_total (labelled with the
-    /// store: "sqlite" or "postgresql"), soilvol_records_queued and soilvol_estimate_watches,
+    /// store: "sqlite" or "postgresql"), soilvol_records_queued and soilvol_watches{feed},
     /// from `probe` at each Serialize. Set once, before the first scrape.
     void SetRecordsProbe(std::string store, std::function<RecordFigures()> probe);
 

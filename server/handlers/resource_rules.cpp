@@ -171,7 +171,7 @@ absl::StatusOr<std::int64_t> ParseRecordId(std::string_view text, std::string_vi
         !absl::SimpleAtoi(AbslView(text), &id) || id <= 0) {
         return absl::InvalidArgumentError(
             absl::StrCat(AbslView(field), ": '", AbslView(text.substr(0, 40)),
-                         "' is not an estimate id (a positive integer)"));
+                         "' is not an id this server gave (a positive integer)"));
     }
     return id;
 }

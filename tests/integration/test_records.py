@@ -330,7 +330,7 @@ class RecordsContract:
             ("soilvol_record_batches_total", {"store": store}),
             ("soilvol_record_failures_total", {"store": store}),
             ("soilvol_records_queued", {}),
-            ("soilvol_estimate_watches", {}))}
+            ("soilvol_watches", {"feed": "estimates"}))}
         before = figures()
         cid = self.prefix + "-m"
         self.register(cid)
@@ -347,7 +347,7 @@ class RecordsContract:
         self.assertEqual(after["soilvol_record_failures_total"],
                          before["soilvol_record_failures_total"])
         self.assertEqual(after["soilvol_records_queued"], 0)  # each answer waited for its commit
-        self.assertEqual(after["soilvol_estimate_watches"], before["soilvol_estimate_watches"] + 1)
+        self.assertEqual(after["soilvol_watches"], before["soilvol_watches"] + 1)
         events.close()
         # The business figures count every answered estimate, recorded or not, per container.
         self.assertEqual(server_metric(self.server, "soilvol_estimates_total", container=cid),

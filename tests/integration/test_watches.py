@@ -41,8 +41,8 @@ class WatchSlotsTest(unittest.TestCase):
         cls.channel.close()
         cls.server.close()
 
-    def watches(self):
-        return server_metric(self.server, "soilvol_estimate_watches")
+    def watches(self, feed="estimates"):
+        return server_metric(self.server, "soilvol_watches", feed=feed)
 
     def open_sse(self):
         return SseReader(self.server.http_port, f"/v1/estimates:watch?containerId={self.cid}")
@@ -52,6 +52,20 @@ class WatchSlotsTest(unittest.TestCase):
         self.assertTrue(wait_until(lambda: self.watches() == count, timeout_s=10.0, step_s=0.02),
                         f"{self.watches()} watches, not {count}")
         return time.monotonic() - start
+
+    def test_each_feed_counts_its_own_watches(self):
+        self.seconds_until_watches(0)
+        loads = SseReader(self.server.http_port, "/v1/loads:watch")
+        self.assertEqual(loads.status, 200)
+        alerts = self.stub.WatchAlerts(pb.WatchAlertsRequest(), timeout=60)
+        alerts.initial_metadata()
+        counts = lambda: tuple(self.watches(feed) for feed in ("estimates", "alerts", "loads"))
+        self.assertTrue(wait_until(lambda: counts() == (0, 1, 1), timeout_s=10.0, step_s=0.02),
+                        counts())
+        loads.close()
+        alerts.cancel()
+        self.assertTrue(wait_until(lambda: counts() == (0, 0, 0), timeout_s=10.0, step_s=0.02),
+                        counts())
 
     def test_the_limit_is_the_flag_and_departed_clients_free_their_slots(self):
         self.seconds_until_watches(0)  # the other test's stream, closed a moment ago
