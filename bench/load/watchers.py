@@ -13,9 +13,11 @@ watchers (asyncio, one connection each, in this process), and estimates made mea
   to its arrival, so it includes the estimate's own time (tens of milliseconds).
 
 The watchers stand for screens on other machines: they run in a child process at nice 19, so
-that on this machine's cores they take what the server leaves (their CPU is reported). Prints
-one markdown row per watcher count and the key=value lines behind them.
-Usage: bench/load/watchers.py [--build build] [--watchers 0,1000] [--rounds 3]
+that on this machine's cores they take what the server leaves (their CPU is reported); with
+--idle-watchers under SCHED_IDLE instead, so that they run only on a core the server leaves
+idle (nice 19 still takes a core the moment an estimate's thread waits). Prints one markdown
+row per watcher count and the key=value lines behind them.
+Usage: bench/load/watchers.py [--build build] [--watchers 0,1000] [--rounds 3] [--idle-watchers]
 """
 import argparse
 import asyncio
@@ -165,9 +167,10 @@ def created_times(server):
 
 def measure(build, server, count, estimates):
     before = set(created_times(server))
+    priority = ["chrt", "--idle", "0"] if args.idle_watchers else ["nice", "-n", "19"]
     child = subprocess.Popen(
-        ["nice", "-n", "19", sys.executable, os.path.abspath(__file__), "--child-port",
-         str(server.http_port), "--watchers", str(count)],
+        priority + [sys.executable, os.path.abspath(__file__), "--child-port",
+                    str(server.http_port), "--watchers", str(count)],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     if child.stdout.readline().strip() != "ready":
         raise RuntimeError("the watchers did not start")
@@ -175,6 +178,7 @@ def measure(build, server, count, estimates):
     make_estimates(server, estimates, answered)
     time.sleep(2.0)  # what is still on its way
     p50s = [load_p50(build, server, child.pid) for _ in range(args.rounds)]
+    time.sleep(2.0)  # the last estimates' events are still on their way to some watchers
     child.stdin.write("dump\n")
     child.stdin.flush()
     report = json.loads(child.stdout.readline())
@@ -247,6 +251,8 @@ if __name__ == "__main__":
                         type=lambda s: [int(x) for x in s.split(",")])
     parser.add_argument("--estimates", type=int, default=20)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--idle-watchers", action="store_true",
+                        help="run the watchers under SCHED_IDLE instead of at nice 19")
     parser.add_argument("--child-port", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child_port:

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <string>
 #include <thread>
 #include <vector>
@@ -20,7 +21,12 @@ using std::chrono::milliseconds;
 /// A raw TCP client: what it sends goes out byte for byte, as a slow or hostile client's would.
 class RawClient {
   public:
-    explicit RawClient(int port) : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
+    /// `receive_buffer` > 0: the socket's receive buffer, set before connecting (a small
+    /// window, as a stalled reader's).
+    explicit RawClient(int port, int receive_buffer = 0) : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
+        if (receive_buffer > 0) {
+            ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &receive_buffer, sizeof(receive_buffer));
+        }
         sockaddr_in address{};
         address.sin_family = AF_INET;
         address.sin_port = htons(static_cast<std::uint16_t>(port));
@@ -136,6 +142,22 @@ class HttpServerTest : public ::testing::Test {
                     }).detach();
                     return;
                 }
+                if (request.path == "/flood") {
+                    // 4 KiB every 5 ms for a reader that never reads: the socket's buffers
+                    // fill, a write stalls, and the write timeout ends the stream well before
+                    // the backlog limit would (1 MiB at 800 KiB/s).
+                    HttpResponse head;
+                    head.content_type = "text/event-stream";
+                    EXPECT_TRUE(exchange->StartStream(std::move(head)));
+                    std::thread([exchange, this] {
+                        const std::string chunk = ": " + std::string(4094, 'x');
+                        while (!stop_slow_ && exchange->Send(chunk)) {
+                            std::this_thread::sleep_for(milliseconds(5));
+                        }
+                        gone_seen_ = exchange->Gone();
+                    }).detach();
+                    return;
+                }
                 if (request.path == "/slow") {
                     // Answers from another thread later, as the worker pool does.
                     std::thread([exchange, this] {
@@ -201,6 +223,21 @@ TEST_F(HttpServerTest, AStreamSeesItsClientLeave) {
     }  // gone while the stream waits for its next event
     for (int i = 0; i < 200 && !gone_seen_; ++i) std::this_thread::sleep_for(milliseconds(10));
     EXPECT_TRUE(gone_seen_);
+}
+
+TEST_F(HttpServerTest, AStreamWhoseReaderStopsReadingEndsAtTheWriteTimeout) {
+    HttpLimits limits;
+    limits.write_timeout = milliseconds(300);
+    StartServer(limits);
+    RawClient client(port_, 4096);
+    ASSERT_TRUE(client.Send("GET /flood HTTP/1.1\r\nHost: x\r\n\r\n"));
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < 1000 && !gone_seen_; ++i) std::this_thread::sleep_for(milliseconds(10));
+    EXPECT_TRUE(gone_seen_);
+    const auto took = std::chrono::steady_clock::now() - start;
+    std::printf("stalled stream ended after %.2f s\n", std::chrono::duration<double>(took).count());
+    EXPECT_LT(took, std::chrono::seconds(8));  // mostly the socket buffers filling
+    EXPECT_EQ(Settled(server_->stats().timed_out, 1), 1);
 }
 
 TEST_F(HttpServerTest, ServesKeepAliveRequestsOnOneConnection) {
