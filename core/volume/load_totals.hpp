@@ -12,8 +12,9 @@ struct PassFigures {
     double volume_m3 = 0.0;  ///< loose
     double sigma_m3 = 0.0;   ///< the estimate's whole 1-sigma
     /// The part of sigma_m3 every estimate against the same registration carries alike (its
-    /// struck capacity's 1-sigma: one empty surface, one error): passes sharing a registration
-    /// add it linearly, the rest adds in quadrature. Clamped to sigma_m3.
+    /// struck capacity's 1-sigma - one empty surface, one error - and what the scan did not
+    /// see, the same hidden strip each pass): passes sharing a registration add it linearly,
+    /// the rest adds in quadrature. Clamped to sigma_m3.
     double shared_sigma_m3 = 0.0;
     std::string registration;     ///< which passes share shared_sigma_m3 ("" shares with no one)
     double bulking_factor = 1.0;  ///< bank volume = volume / bulking

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <map>
 
 #include "absl/strings/str_cat.h"
@@ -25,7 +26,10 @@ volume::PassFigures PassOf(const v1::Estimate& estimate) {
     volume::PassFigures pass;
     pass.volume_m3 = result.volume_m3();
     pass.sigma_m3 = result.uncertainty_m3();
-    pass.shared_sigma_m3 = result.coverage().capacity_uncertainty_m3();
+    // What repeats from pass to pass: the registration's error, and the strip the scan could
+    // not see - the same walls hidden from the same mount, filled the same way each pass.
+    pass.shared_sigma_m3 = std::hypot(result.coverage().capacity_uncertainty_m3(),
+                                      result.coverage().unobserved_uncertainty_m3());
     // Records from before registrations had ids share by container.
     pass.registration = result.registration_id().empty()
                             ? absl::StrCat("container:", estimate.container_id())

@@ -50,10 +50,11 @@ def sse_loads(stream, count):
 
 def combined_sigma(passes):
     """The passes' sum's 1-sigma: own errors in quadrature, each registration's shared part
-    (the container's capacity sigma) linearly."""
+    (the capacity sigma and the unobserved part, in quadrature) linearly."""
     independent, shared = 0.0, {}
     for p in passes:
-        s = min(p.coverage.capacity_uncertainty_m3, p.uncertainty_m3)
+        s = min(math.hypot(p.coverage.capacity_uncertainty_m3,
+                           p.coverage.unobserved_uncertainty_m3), p.uncertainty_m3)
         independent += p.uncertainty_m3 ** 2 - s ** 2
         shared[p.registration_id] = shared.get(p.registration_id, 0.0) + s
     return math.sqrt(independent + sum(v * v for v in shared.values()))
