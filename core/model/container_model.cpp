@@ -241,9 +241,9 @@ int NearestSide(const Polygon2d& polygon, const Eigen::Vector2d& xy) {
     return best;
 }
 
-// The struck capacity's 1-sigma: unseen cells' ranges summed linearly (a hidden wall is one
-// error), the prior walls' thickness over their height and length, the fits' variances
-// (windows counted once); and the sides the unseen parts lie along.
+// The struck capacity's 1-sigma: unseen cells' ranges and measured cells' misfits summed
+// linearly (a wall is one error), the prior walls' thickness over their height and length, the
+// fits' variances (windows counted once); and the sides the unseen parts lie along.
 void SetCapacitySigma(const volume::Grid& grid, const volume::EmptySurface& empty,
                       ContainerModel& model) {
     const Polygon2d& polygon = model.opening.polygon;
@@ -256,6 +256,9 @@ void SetCapacitySigma(const volume::Grid& grid, const volume::EmptySurface& empt
         if (w <= 0.0) continue;
         if (std::isfinite(empty.map.variance[k]))
             fit_variance += w * w * window * empty.map.variance[k];
+        // What a measured cell's plane does not follow: one wall, one error.
+        if (k < empty.map.misfit.size() && std::isfinite(empty.map.misfit[k]))
+            linear += w * empty.map.misfit[k];
         const double s = empty.unobserved_sigma_m[k];
         if (s <= 0.0) continue;
         linear += w * s;

@@ -78,8 +78,9 @@ struct ContainerModel {
     double struck_capacity_m3 = 0.0;      ///< empty surface to the opening plane
     double heaped_capacity_sae_m3 = 0.0;  ///< struck + 1:1 heap (SAE J296)
     double heaped_capacity_iso_m3 = 0.0;  ///< struck + 2:1 heap (ISO 7546)
-    /// 1-sigma of struck_capacity_m3: the range of the empty surface no scan saw (summed over
-    /// the cells: one hidden wall is one error), the thin-shell walls' thickness, the fits.
+    /// 1-sigma of struck_capacity_m3: the range of the empty surface no scan saw and the
+    /// measured cells' misfit (SurfaceMap::misfit), each summed over the cells (one wall is one
+    /// error), the thin-shell walls' thickness, the fits.
     double struck_capacity_sigma_m3 = 0.0;
     std::vector<UnseenSide> unseen;  ///< sides with unseen parts, the largest 1-sigma first
     double noise_sigma_m = 0.0;      ///< robust noise of the empty surface fit

@@ -328,6 +328,9 @@ absl::StatusOr<VolumeResult> HeightmapVolume(const EmptySide& empty_side,
         // Where neither surface was seen the contents lie between 0 and the scan's ceiling
         // above the empty surface's lower bound: one range, not two.
         unobserved += w * std::max(unobserved_sigma[k], unseen_soil_sigma[k]);
+        // A measured empty cell whose plane does not follow its surface: one wall, one error.
+        if (k < empty.misfit.size() && std::isfinite(empty.misfit[k]))
+            unobserved += w * empty.misfit[k];
         ++result.cells.total;
         if (soil.support[k] > 0) {
             result.state[k] = CellState::kMeasured;

@@ -246,6 +246,31 @@ double EstimateNoise(const Grid& grid, const CellBins& bins, const WeightedPoint
     return std::max(config.min_noise_m, Median(std::move(sigmas)));
 }
 
+// How far the cell's own returns stray from its plane beyond the noise `sigma`: a return's
+// squared residual times its ray weight is, for noise alone, the noise variance; the median
+// over the returns that tell a height (divided by the median of a chi-square with one degree,
+// 0.455) less sigma^2 is what the plane leaves out - the kink of a floor meeting a wall, a
+// wall curving up to the rim.
+double Misfit(const Grid& grid, const CellBins& bins, const WeightedPoints& wp, int cell,
+              const PlaneFit& fit, double sigma) {
+    const auto k = static_cast<std::size_t>(cell);
+    const Eigen::Vector2d anchor = grid.anchor[k];
+    std::vector<double> scaled;
+    for (int i = bins.start[k]; i < bins.start[k + 1]; ++i) {
+        const auto j = static_cast<std::size_t>(bins.index[static_cast<std::size_t>(i)]);
+        const double ray = wp.ray.empty() ? 1.0 : static_cast<double>(wp.ray[j]);
+        const Eigen::Vector3f& p = wp.points[j];
+        if (ray <= 0.01 || !std::isfinite(p.z())) continue;
+        const double e = static_cast<double>(p.z()) -
+                         (fit.a + fit.b * (static_cast<double>(p.x()) - anchor.x()) +
+                          fit.c * (static_cast<double>(p.y()) - anchor.y()));
+        scaled.push_back(ray * e * e);
+    }
+    if (scaled.size() < 3) return 0.0;
+    constexpr double kMedianChiSquare1 = 0.4549;
+    return std::sqrt(std::max(0.0, Median(std::move(scaled)) / kMedianChiSquare1 - sigma * sigma));
+}
+
 // Points per m^2 over the opening.
 double Density(const Grid& grid, const CellBins& bins) {
     double area = 0.0;
@@ -301,6 +326,7 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
     map.variance.assign(num_cells, kNaN);
     map.support.assign(num_cells, 0);
     map.observed.assign(num_cells, 0.0);
+    map.misfit.assign(num_cells, kNaN);
     const double sigma = map.noise_sigma_m;
     const bool fine_bins_resolve =
         density > 0.0 && grid.cell_m / kBinsPerCell >= 1.0 / std::sqrt(density);
@@ -329,6 +355,7 @@ absl::StatusOr<SurfaceMap> EstimateSurface(const Grid& grid, const Cloud& points
         if (!fit.ok) continue;
         map.height[k] = fit.a;
         map.variance[k] = scale * scale * fit.var_factor;
+        map.misfit[k] = Misfit(grid, bins, wp, cell, fit, sigma);
         map.support[k] = bins.start[k + 1] - bins.start[k];
     }
     SOILVOL_RETURN_IF_ERROR(stop.Check("surface fit"));

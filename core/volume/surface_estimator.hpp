@@ -39,8 +39,12 @@ struct SurfaceMap {
     std::vector<double> variance;  ///< [m^2] of each height
     std::vector<int> support;      ///< points in the cell behind each height; 0 = interpolated
     std::vector<double> observed;  ///< per cell: the share of it the returns cover
-    double noise_sigma_m = 0.0;    ///< robust noise estimate along z
-    int window_cells = 1;          ///< side of the fit window, in cells
+    /// Per measured cell: how far its own returns stray from its plane beyond the noise [m]
+    /// (robust, ray-weighted: a curved or kinked surface the plane does not follow); 0 where
+    /// the plane fits, NaN for holes.
+    std::vector<double> misfit;
+    double noise_sigma_m = 0.0;  ///< robust noise estimate along z
+    int window_cells = 1;        ///< side of the fit window, in cells
     int measured = 0;
     int interpolated = 0;
 };

@@ -230,7 +230,8 @@ class Dashboard(unittest.TestCase):
             self.assertGreater(painted, 10000)
             self.assertEqual(browser.evaluate("document.getElementById('detail-status').textContent"),
                              "LOADED OK")
-            self.assertIn("± 0.", browser.evaluate("document.getElementById('facts').textContent"))
+            self.assertRegex(browser.evaluate("document.getElementById('facts').textContent"),
+                             r"volume[\d.]+ m³ ± [\d.]+ (L|m³)")  # the 1-sigma beside it
             self.assertTrue(browser.evaluate(
                 "document.getElementById('detail-warnings').classList.contains('hidden')"))
             os.makedirs(SCREENSHOTS, exist_ok=True)

@@ -89,6 +89,9 @@ TEST(SurfaceEstimatorTest, FlatPlaneHeightsLieWithinFiveStandardErrorsOfTheTruth
             << "cell " << k;
         normalised_sq += std::pow(map->height[i] - truth, 2) / map->variance[i];
         EXPECT_NEAR(map->observed[i], 1.0, 1e-12) << k;
+        // A plane leaves nothing out: the misfit is noise alone (the median of ~200 squared
+        // residuals reads the variance to 16%, so sqrt(0.5) sigma at 3 of its standard errors).
+        EXPECT_LE(map->misfit[i], kSigmaM) << k;
     }
     // The variances are the heights' own: the mean of 100 squared errors over their variance
     // is 1 +- 0.14 (chi-square with 100 degrees of freedom, divided by 100); 0.5..1.6 is 3.5 sd.
@@ -130,6 +133,38 @@ TEST(SurfaceEstimatorTest, TiltedPlaneIsReadAtEachCellsAnchor) {
     // 70 cells lie wholly inside, 10 are cut by the slanted side and 20 lie wholly outside.
     EXPECT_EQ(outside, 20);
     EXPECT_EQ(checked, 80);
+}
+
+// A ridge z = 0.5 - s |x - x0| along the middle of a column of cells: the plane of a cell the
+// ridge halves leaves out the roof's two faces. For returns uniform over a cell of side h with the
+// ridge through its centre, the best plane is the level s h / 4 below the ridge and the faces
+// stray from it by s h sqrt(1/12 - 1/16) = 0.144 s h RMS, s h / 4 at most: 2.9 cm and 5 cm for
+// s = 2 (63 deg) and h = 10 cm, over 1 cm of noise. Cells the ridge does not cross are planes.
+TEST(SurfaceEstimatorTest, MisfitIsWhatACellsPlaneLeavesOutOfARidge) {
+    const Polygon2d opening = Rectangle(0.0, 0.0, 1.0, 1.0);
+    const Grid grid = MakeGrid(opening, kCellM);
+    constexpr double kSlope = 2.0, kRidgeX = 0.45;  // the middle of the fifth column of cells
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::normal_distribution<double> noise(0.0, kSigmaM);
+    Cloud cloud;
+    for (int i = 0; i < 20000; ++i) {
+        const double x = u(rng), y = u(rng);
+        cloud.emplace_back(static_cast<float>(x), static_cast<float>(y),
+                           static_cast<float>(0.5 - kSlope * std::abs(x - kRidgeX) + noise(rng)));
+    }
+    const auto map = EstimateSurface(grid, cloud, {}, SurfaceConfig{});
+    ASSERT_TRUE(map.ok()) << map.status();
+    for (int k = 0; k < grid.NumCells(); ++k) {
+        const auto i = static_cast<std::size_t>(k);
+        ASSERT_GT(map->support[i], 0) << k;
+        if (k % grid.cols == 4) {  // the ridge's column
+            EXPECT_GT(map->misfit[i], 0.5 * 0.144 * kSlope * kCellM) << k;
+            EXPECT_LT(map->misfit[i], kSlope * kCellM / 4.0) << k;
+        } else {
+            EXPECT_LE(map->misfit[i], kSigmaM) << k;
+        }
+    }
 }
 
 TEST(SurfaceEstimatorTest, GrossOutliersAboveTheSurfaceDoNotMoveIt) {
