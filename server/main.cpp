@@ -56,6 +56,11 @@ void AddStorageFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
                    "is noticed by it")
         ->envname("SOILVOL_WATCH_HEARTBEAT_SECONDS")
         ->capture_default_str();
+    app.add_option("--watch-coalesce-seconds", o.watch_coalesce_s,
+                   "Watches get new records at most this often: records committed meanwhile "
+                   "wait and go to each watcher in one write (0: at every commit)")
+        ->envname("SOILVOL_WATCH_COALESCE_SECONDS")
+        ->capture_default_str();
     app.add_option("--metrics-max-containers", o.metrics_max_containers,
                    "Containers with a label of their own on /metrics' per-container figures; "
                    "the rest are summed as container=\"_other\"")

@@ -62,6 +62,9 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (!(o.watch_heartbeat_s >= 0.1 && o.watch_heartbeat_s <= 60.0)) {
         return Invalid("watch-heartbeat-seconds", "must be in [0.1, 60]");
     }
+    if (!(o.watch_coalesce_s >= 0.0 && o.watch_coalesce_s <= 1.0)) {
+        return Invalid("watch-coalesce-seconds", "must be in [0, 1]");
+    }
     if (o.metrics_max_containers < 1 || o.metrics_max_containers > 10000) {
         return Invalid("metrics-max-containers", "must be in [1, 10000]");
     }

@@ -25,6 +25,9 @@ struct ServerOptions {
     /// A watch that got nothing for this long gets a heartbeat (SSE: a comment line), which
     /// also tells a client that left from one that listens.
     double watch_heartbeat_s = 1.0;
+    /// Watches are handed new records at most this often: what commits within it after a
+    /// delivery waits for the next, and a watcher gets it in the same write (0: at every commit).
+    double watch_coalesce_s = 0.1;
     /// Containers with their own label on /metrics' per-container figures; the rest are
     /// summed under container="_other", so that a fleet's growth cannot grow the scrape.
     int metrics_max_containers = 200;

@@ -201,6 +201,7 @@ absl::Status OpenRecords(ServerParts& p) {
     EstimateFeed::Config feed;
     feed.max_watches = static_cast<std::size_t>(o.max_watches);
     feed.heartbeat = std::chrono::milliseconds(std::lround(o.watch_heartbeat_s * 1000.0));
+    feed.coalesce = std::chrono::milliseconds(std::lround(o.watch_coalesce_s * 1000.0));
     feed.in_use = std::make_shared<std::atomic<std::size_t>>(0);  // one limit for the three
     p.feed = std::make_unique<EstimateFeed>(*p.recorder, EstimateSource(*p.records), feed);
     p.alert_feed = std::make_unique<AlertFeed>(*p.recorder, AlertSource(*p.records), feed);

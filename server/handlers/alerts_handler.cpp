@@ -91,7 +91,7 @@ absl::StatusOr<std::function<void()>> SoilVolumeHandlers::WatchAlerts(
     }
     if (!request.after_alert_id().empty()) {
         SOILVOL_ASSIGN_OR_RETURN(spec.after_id,
-                                 ParseRecordId(request.after_alert_id(), "after_alert_id"));
+                                 ParseResumeId(request.after_alert_id(), "after_alert_id"));
     }
     auto converted = [deliver = std::move(deliver)](const AlertRecord* row) {
         if (row == nullptr) return deliver(nullptr);

@@ -2,6 +2,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.hpp"
 #include "google/protobuf/util/time_util.h"
+#include "server/base/recent_cache.hpp"
 #include "server/handlers/resource_rules.hpp"
 #include "server/handlers/soilvol_handlers.hpp"
 #include "server/store/entry_id.hpp"
@@ -24,7 +25,7 @@ absl::StatusOr<LoadEventFeed::Spec> LoadWatchSpec(const v1::WatchLoadsRequest& r
     }
     if (!request.after_event_id().empty()) {
         SOILVOL_ASSIGN_OR_RETURN(spec.after_id,
-                                 ParseRecordId(request.after_event_id(), "after_event_id"));
+                                 ParseResumeId(request.after_event_id(), "after_event_id"));
     }
     return spec;
 }
@@ -65,20 +66,18 @@ absl::StatusOr<std::function<void()>> SoilVolumeHandlers::WatchLoads(
     SOILVOL_ASSIGN_OR_RETURN(LoadEventFeed::Spec spec, LoadWatchSpec(request));
     auto converted = [this, deliver = std::move(deliver)](const LoadEventRecord* row) {
         if (row == nullptr) return deliver(nullptr);
-        // Built once per event, not once per watch (the feed hands it to each in turn).
+        // Built once per event, not once per watch (the feed hands a group to each in turn).
         struct Built {
-            std::int64_t id = -1;
             bool ok = false;
             v1::LoadEvent event;
         };
-        thread_local Built last;
-        if (last.id != row->id) {
-            last.event.Clear();
-            last.ok = BuildLoadEvent(*row, &last.event).ok();
-            last.id = row->id;
-        }
+        thread_local RecentCache<std::int64_t, Built, kFeedGroupRows> built;
+        const Built& made = built.Get(row->id, [&](std::int64_t, Built& out) {
+            out.event.Clear();
+            out.ok = BuildLoadEvent(*row, &out.event).ok();
+        });
         // An event whose load or records do not parse is skipped: the watch goes on.
-        return !last.ok || deliver(&last.event);
+        return !made.ok || deliver(&made.event);
     };
     SOILVOL_ASSIGN_OR_RETURN(
         std::shared_ptr<LoadEventFeed::Watch> watch,

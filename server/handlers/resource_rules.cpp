@@ -176,4 +176,9 @@ absl::StatusOr<std::int64_t> ParseRecordId(std::string_view text, std::string_vi
     return id;
 }
 
+absl::StatusOr<std::int64_t> ParseResumeId(std::string_view text, std::string_view field) {
+    if (text == "0") return 0;
+    return ParseRecordId(text, field);
+}
+
 }  // namespace soilvol::server

@@ -39,6 +39,8 @@ std::string RecordPageToken(std::int64_t last_id);
 absl::StatusOr<std::optional<std::int64_t>> ParseRecordPageToken(std::string_view page_token);
 /// An estimate id: a positive decimal integer; InvalidArgument naming `field` otherwise.
 absl::StatusOr<std::int64_t> ParseRecordId(std::string_view text, std::string_view field);
+/// Where a watch resumes: an id as ParseRecordId, or "0" for before the first (every row kept).
+absl::StatusOr<std::int64_t> ParseResumeId(std::string_view text, std::string_view field);
 
 /// AIP-155: "" (none) or 1-128 characters of [A-Za-z0-9._:-] (a UUID fits).
 absl::Status ValidateRequestId(std::string_view request_id, std::string_view field);

@@ -1,9 +1,12 @@
 #include "server/http/sse_stream.hpp"
 
+#include <string>
+#include <tuple>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "google/protobuf/util/json_util.h"
+#include "server/base/recent_cache.hpp"
 #include "server/base/status_map.hpp"
 
 namespace soilvol::server {
@@ -27,20 +30,23 @@ bool SseStream::Deliver(const google::protobuf::Message* message) {
         message->GetDescriptor()->FindFieldByName(id_field_);
     const std::string event_id =
         id != nullptr ? message->GetReflection()->GetString(*message, id) : "";
-    // A feed delivers one message to every stream in turn on its thread: the event is
-    // rendered once (JSON printing was most of a delivery's cost) and copied to each.
+    // A feed delivers a group of messages to every stream in turn on its thread: each event is
+    // rendered once (JSON printing was most of a delivery's cost) and copied to each stream;
+    // the streams of a feed may take two views of each row.
+    using Key = std::tuple<const google::protobuf::Message*, std::string, std::string>;
     struct Rendered {
-        const google::protobuf::Message* message = nullptr;
-        std::string event_id, event, chunk;
+        bool ok = false;
+        std::string chunk;
     };
-    thread_local Rendered last;
-    if (last.message != message || last.event_id != event_id || last.event != event_) {
-        std::string json;
-        if (!google::protobuf::util::MessageToJsonString(*message, &json).ok()) return true;
-        last = {message, event_id, event_,
-                absl::StrCat("id: ", event_id, "\nevent: ", event_, "\ndata: ", json, "\n\n")};
-    }
-    return Send(last.chunk);
+    thread_local RecentCache<Key, Rendered, 2 * kFeedGroupRows> rendered;
+    const Rendered& event =
+        rendered.Get(Key{message, event_id, event_}, [&](const Key&, Rendered& out) {
+            std::string json;
+            out.ok = google::protobuf::util::MessageToJsonString(*message, &json).ok();
+            out.chunk =
+                absl::StrCat("id: ", event_id, "\nevent: ", event_, "\ndata: ", json, "\n\n");
+        });
+    return !event.ok || Send(event.chunk);
 }
 
 void SseStream::End(const absl::Status& status) {

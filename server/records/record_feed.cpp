@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "absl/strings/str_cat.h"
+#include "server/base/recent_cache.hpp"
 
 namespace soilvol::server {
 
@@ -162,19 +163,26 @@ void RecordFeed<Row>::DeliverNew(const std::vector<std::shared_ptr<Watch>>& watc
     if (auto rows = source_.after("", newest_, config_.batch); rows.ok()) fresh = *std::move(rows);
     const std::int64_t before = newest_;
     if (!fresh.empty()) newest_ = fresh.back().id;
+    std::vector<Watch*> open;
     for (const auto& watch : watches) {
         if (!watch->live()) continue;
         if (watch->cursor_ < 0) watch->cursor_ = before;  // placed: from now on
         // Behind (resumed from an old id): from the store first.
-        if (!CatchUp(*watch, before)) {
-            End(watch, absl::OkStatus());
-            continue;
+        if (CatchUp(*watch, before)) open.push_back(watch.get());
+    }
+    // Each group of rows to every watch in turn, the whole group to one watch before the next:
+    // its stream writes them at once, and a consumer converts and renders each row of the
+    // group once for all watches (kFeedGroupRows).
+    for (std::size_t first = 0; first < fresh.size(); first += kFeedGroupRows) {
+        const std::size_t end = std::min(fresh.size(), first + kFeedGroupRows);
+        for (Watch* watch : open) {
+            for (std::size_t i = first; i < end; ++i) {
+                const Row& row = fresh[i];
+                if (row.id > watch->cursor_ && watch->Offer(&row)) watch->cursor_ = row.id;
+            }
         }
-        for (const Row& row : fresh) {
-            if (row.id <= watch->cursor_) continue;
-            if (!watch->Offer(&row)) break;
-            watch->cursor_ = row.id;
-        }
+    }
+    for (const auto& watch : watches) {
         if (watch->live() &&
             std::chrono::steady_clock::now() - watch->last_sent_ >= config_.heartbeat) {
             watch->Offer(nullptr);
@@ -191,9 +199,16 @@ template <typename Row>
 void RecordFeed<Row>::Run() {
     pthread_setname_np(pthread_self(), "soilvol-feed");  // top -H, perf, gdb
     std::int64_t seen_local = 0;
+    std::chrono::steady_clock::time_point last_round;
     while (true) {
         const std::int64_t seen_before = seen_local;
         seen_local = recorder_.WaitForNewer(seen_local, config_.poll);
+        // A commit soon after the last round waits out the coalescing interval, with what
+        // else commits meanwhile (a burst of estimates: one write per watcher, not one each).
+        if (seen_local > seen_before) {
+            std::this_thread::sleep_until(last_round + config_.coalesce);
+            last_round = std::chrono::steady_clock::now();
+        }
         std::vector<std::shared_ptr<Watch>> watches;
         bool stopping = false;
         {

@@ -21,6 +21,9 @@ struct FeedConfig {
     /// A watch that got nothing for this long gets a heartbeat (Deliver(nullptr)): SSE
     /// sends a comment, and a departed client is noticed.
     std::chrono::milliseconds heartbeat{1'000};
+    /// Rounds with new rows start at most this often: rows committed within it after a round
+    /// wait for the next, and go to each watch together (its stream writes them at once).
+    std::chrono::milliseconds coalesce{0};
     std::size_t max_watches = 2048;  ///< --max-watches
     int batch = 200;                 ///< records read per query
     /// The watches of every feed given the same counter, which max_watches bounds together;

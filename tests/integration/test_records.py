@@ -310,6 +310,12 @@ class RecordsContract:
             self.assertEqual((event_id, name), (live.estimate_id, "estimate"))
             self.assertEqual(json.loads(data)["result"]["volumeM3"], live.volume_m3)
             events.close()
+            # "0": from the first record kept.
+            everything = SseReader(
+                other.http_port, f"/v1/estimates:watch?containerId={cid}&afterEstimateId=0")
+            self.assertEqual([everything.next_event()[0] for _ in range(5)],
+                             [first.estimate_id] + missed + [live.estimate_id])
+            everything.close()
             # Bad requests are plain HTTP errors, before any stream.
             bad = SseReader(other.http_port, "/v1/estimates:watch?afterEstimateId=x")
             self.assertEqual(bad.status, 400)

@@ -139,7 +139,8 @@ class FlagsTest(unittest.TestCase):
     @needs_own_server
     def test_out_of_range_watch_flags_are_refused_naming_the_flag(self):
         for flag, value in (("--max-watches", "0"), ("--watch-heartbeat-seconds", "0.01"),
-                            ("--watch-heartbeat-seconds", "61")):
+                            ("--watch-heartbeat-seconds", "61"),
+                            ("--watch-coalesce-seconds", "2")):
             run = subprocess.run([os.environ["SOILVOL_SERVER_BIN"], flag, value],
                                  capture_output=True, text=True, timeout=30)
             self.assertEqual(run.returncode, 2, run.stderr)

@@ -142,6 +142,18 @@ class HttpServerTest : public ::testing::Test {
                     }).detach();
                     return;
                 }
+                if (request.path == "/burst") {
+                    // Three events and the end, posted before the connection's thread (busy
+                    // here) can take any of them.
+                    HttpResponse head;
+                    head.content_type = "text/event-stream";
+                    EXPECT_TRUE(exchange->StartStream(std::move(head)));
+                    for (int i = 1; i <= 3; ++i) {
+                        exchange->Send("id: " + std::to_string(i) + "\n\n");
+                    }
+                    exchange->Finish();
+                    return;
+                }
                 if (request.path == "/flood") {
                     // 4 KiB every 5 ms for a reader that never reads: the socket's buffers
                     // fill, a write stalls, and the write timeout ends the stream well before
@@ -212,6 +224,17 @@ TEST_F(HttpServerTest, StreamedResponsesArriveChunkByChunkAndKeepTheConnection) 
     const std::string next = client.ReadResponse();
     EXPECT_EQ(StatusOf(next), 200) << next;
     EXPECT_NE(next.find("{\"bytes\":3}"), std::string::npos) << next;
+}
+
+TEST_F(HttpServerTest, ChunksPostedBeforeTheConnectionTookThemLeaveAsOne) {
+    StartServer();
+    RawClient client(port_);
+    ASSERT_TRUE(client.Send("GET /burst HTTP/1.1\r\nHost: x\r\n\r\n"));
+    const std::string response = client.ReadUntil("\r\n0\r\n\r\n");
+    const std::size_t body = response.find("\r\n\r\n");
+    ASSERT_NE(body, std::string::npos) << response;
+    // One HTTP chunk of 21 bytes (hex 15), in order, then the last chunk.
+    EXPECT_EQ(response.substr(body + 4), "15\r\nid: 1\n\nid: 2\n\nid: 3\n\n\r\n0\r\n\r\n");
 }
 
 TEST_F(HttpServerTest, AStreamSeesItsClientLeave) {

@@ -127,6 +127,14 @@ TEST(ResourceRules, RecordIdsAndTokensRefuseHostileText) {
         EXPECT_TRUE(absl::IsInvalidArgument(id.status())) << bad;
         EXPECT_EQ(FieldOf(id.status().message()), "estimate_id");
     }
+    // A watch resumes after an id, or from the first kept ("0"); nothing else more.
+    EXPECT_EQ(*ParseResumeId("0", "after_estimate_id"), 0);
+    EXPECT_EQ(*ParseResumeId("42", "after_estimate_id"), 42);
+    for (const std::string& bad : std::vector<std::string>{"", "00", "-0", "+0", "0 ", "x"}) {
+        const absl::StatusOr<std::int64_t> id = ParseResumeId(bad, "after_estimate_id");
+        EXPECT_TRUE(absl::IsInvalidArgument(id.status())) << bad;
+        EXPECT_EQ(FieldOf(id.status().message()), "after_estimate_id");
+    }
     EXPECT_FALSE(ParseRecordPageToken("")->has_value());
     EXPECT_EQ(**ParseRecordPageToken(RecordPageToken(17)), 17);
     for (const std::string& bad :

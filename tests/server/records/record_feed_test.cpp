@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <condition_variable>
 
 #include "test_databases.hpp"
@@ -89,6 +90,95 @@ TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
     EXPECT_TRUE(std::is_sorted(all.begin(), all.end()));
     feed.Stop(*watch_a);
     EXPECT_EQ(feed.watches(), 1u);
+}
+
+TEST_P(EstimateFeedTest, ARoundHandsAWatchItsRowsTogetherThenTheNextWatch) {
+    // So that a stream writes a round's rows at once, and a consumer that keeps the last
+    // kFeedGroupRows rows it made makes each once for all its watches.
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    std::mutex mutex;
+    std::vector<std::pair<int, std::int64_t>> log;  // (watch, record id) in delivery order
+    std::atomic<bool> held{false}, released{false};
+    auto deliver = [&](int watch) {
+        return [&, watch](const EstimateRecord* record) {
+            if (record == nullptr) return true;
+            {
+                std::lock_guard<std::mutex> lock(mutex);
+                log.emplace_back(watch, record->id);
+            }
+            // The first record holds the feed's round while two more are committed.
+            if (watch == 1 && !held.exchange(true)) {
+                for (int i = 0; i < 500 && !released; ++i) std::this_thread::sleep_for(10ms);
+            }
+            return true;
+        };
+    };
+    EstimateFeed feed(recorder, EstimateSource(*store), {});
+    ASSERT_TRUE(feed.Start({"", std::nullopt}, deliver(1), [](const absl::Status&) {}).ok());
+    ASSERT_TRUE(feed.Start({"", std::nullopt}, deliver(2), [](const absl::Status&) {}).ok());
+    std::this_thread::sleep_for(300ms);  // placed
+    std::vector<std::int64_t> ids;
+    ids.push_back(*recorder.Record(Draft("a")));
+    for (int i = 0; i < 500 && !held; ++i) std::this_thread::sleep_for(10ms);
+    ASSERT_TRUE(held);
+    ids.push_back(*recorder.Record(Draft("b")));
+    ids.push_back(*recorder.Record(Draft("a")));
+    released = true;
+    const auto all_there = [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return log.size() >= 6;
+    };
+    for (int i = 0; i < 500 && !all_there(); ++i) std::this_thread::sleep_for(10ms);
+    std::lock_guard<std::mutex> lock(mutex);
+    const std::vector<std::pair<int, std::int64_t>> expected = {
+        {1, ids[0]}, {2, ids[0]}, {1, ids[1]}, {1, ids[2]}, {2, ids[1]}, {2, ids[2]}};
+    EXPECT_EQ(log, expected);
+}
+
+TEST_P(EstimateFeedTest, CommitsWithinTheCoalescingIntervalArriveTogether) {
+    TestDatabase db(GetParam());
+    SOILVOL_NEED_DATABASE(db);
+    auto store = db.Open();
+    ASSERT_NE(store, nullptr);
+    EstimateRecorder recorder(*store, {});
+    EstimateFeed::Config config;
+    config.coalesce = 400ms;
+    using Clock = std::chrono::steady_clock;
+    std::mutex mutex;
+    std::vector<Clock::time_point> arrived;
+    EstimateFeed feed(recorder, EstimateSource(*store), config);
+    ASSERT_TRUE(feed.Start(
+                        {"", std::nullopt},
+                        [&](const EstimateRecord* record) {
+                            std::lock_guard<std::mutex> lock(mutex);
+                            if (record != nullptr) arrived.push_back(Clock::now());
+                            return true;
+                        },
+                        [](const absl::Status&) {})
+                    .ok());
+    std::this_thread::sleep_for(300ms);  // placed
+    const auto count = [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return arrived.size();
+    };
+    const Clock::time_point first = Clock::now();
+    ASSERT_TRUE(recorder.Record(Draft("a")).ok());
+    for (int i = 0; i < 500 && count() < 1; ++i) std::this_thread::sleep_for(1ms);
+    ASSERT_TRUE(recorder.Record(Draft("a")).ok());
+    ASSERT_TRUE(recorder.Record(Draft("b")).ok());
+    for (int i = 0; i < 300 && count() < 3; ++i) std::this_thread::sleep_for(10ms);
+    std::lock_guard<std::mutex> lock(mutex);
+    ASSERT_EQ(arrived.size(), 3u);
+    // The first after a quiet spell at once; the two behind it wait out the interval and
+    // arrive in one round.
+    EXPECT_LT(arrived[0] - first, 200ms);
+    EXPECT_GE(arrived[1] - arrived[0], 300ms);
+    EXPECT_LT(arrived[1] - arrived[0], 1s);
+    EXPECT_LT(arrived[2] - arrived[1], 50ms);
 }
 
 TEST_P(EstimateFeedTest, QuietWatchesGetHeartbeats) {
