@@ -104,6 +104,11 @@ void AddEngineFlags(CLI::App& app, soilvol::server::ServerOptions& o) {
                    "an alert a webhook could not take for this long is abandoned, (0, 720]")
         ->envname("SOILVOL_WEBHOOK_MAX_AGE_HOURS")
         ->capture_default_str();
+    app.add_option("--webhook-lease-seconds", o.webhook_lease_s,
+                   "one replica sends a webhook's alerts under a lease this long; a replica "
+                   "that died is taken over after it, [10, 600]")
+        ->envname("SOILVOL_WEBHOOK_LEASE_SECONDS")
+        ->capture_default_str();
     app.add_option("--webhook-ca-file", o.webhook_ca_file,
                    "PEM certificates to verify webhooks' https servers with (default: the "
                    "system's)")

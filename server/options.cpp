@@ -94,6 +94,9 @@ absl::Status ValidateServiceOptions(const ServerOptions& o) {
     if (!(o.webhook_max_age_hours > 0.0 && o.webhook_max_age_hours <= 720.0)) {
         return Invalid("webhook-max-age-hours", "must be in (0, 720]");
     }
+    if (o.webhook_lease_s < 10 || o.webhook_lease_s > 600) {
+        return Invalid("webhook-lease-seconds", "must be in [10, 600]");
+    }
     return absl::OkStatus();
 }
 

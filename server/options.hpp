@@ -60,6 +60,9 @@ struct ServerOptions {
     std::string webhooks_file;
     /// An alert a webhook could not take for this long is abandoned (logged), (0, 720].
     double webhook_max_age_hours = 72.0;
+    /// A replica sends a webhook's alerts under a lease this long, renewed at half of it: a
+    /// replica that died (no graceful hand-over) is taken over after it, [10, 600].
+    int webhook_lease_s = 30;
     /// PEM certificates webhooks' https servers are verified with; "" = the system's.
     std::string webhook_ca_file;
 

@@ -334,6 +334,7 @@ void StartBackground(ServerParts& p) {
     WebhookDispatcher::Config config;
     config.max_age = std::chrono::seconds(std::lround(p.options.webhook_max_age_hours * 3600.0));
     config.post.ca_file = p.options.webhook_ca_file;
+    config.lease = std::chrono::seconds(p.options.webhook_lease_s);
     config.holder = LeaseHolderName();
     p.webhook_dispatcher =
         std::make_unique<WebhookDispatcher>(*p.recorder, p.webhooks, std::move(config));

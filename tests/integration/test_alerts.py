@@ -70,6 +70,8 @@ class AlertsContract:
     def start_server(cls):
         cls.server = Server(data_dir=cls.data_dir, args=[
             "--workers", "2", "--load-idle-seconds", "600", "--webhooks-file", cls.webhooks,
+            # test_5's killed server: its lease lapses for the next one after this long.
+            "--webhook-lease-seconds", "10",
             *cls.records_args()]).start()
         cls.addClassCleanup(cls.server.close)
         cls.channel = cls.server.channel(grpc)

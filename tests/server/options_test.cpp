@@ -44,6 +44,10 @@ TEST(ServerOptions, EachBadValueNamesItsFlag) {
         {"--capacity-warning-share", [](ServerOptions& o) { o.capacity_warning_share = 1.5; }},
         {"--capacity-warning-share",
          [](ServerOptions& o) { o.capacity_warning_share = std::nan(""); }},
+        {"--watch-coalesce-seconds", [](ServerOptions& o) { o.watch_coalesce_s = -0.1; }},
+        {"--watch-coalesce-seconds", [](ServerOptions& o) { o.watch_coalesce_s = std::nan(""); }},
+        {"--webhook-lease-seconds", [](ServerOptions& o) { o.webhook_lease_s = 9; }},
+        {"--webhook-lease-seconds", [](ServerOptions& o) { o.webhook_lease_s = 601; }},
     };
     for (const Case& c : cases) {
         ServerOptions options;
