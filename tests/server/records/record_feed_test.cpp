@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <memory>
 
 #include "test_databases.hpp"
 
@@ -58,17 +59,27 @@ EstimateRecord Draft(const std::string& container) {
     return record;
 }
 
-class EstimateFeedTest : public ::testing::TestWithParam<std::string> {};
+/// Each test's database (SQLite, or PostgreSQL where there is one), a store on it and its
+/// recorder.
+class EstimateFeedTest : public ::testing::TestWithParam<std::string> {
+  protected:
+    void SetUp() override {
+        db_ = std::make_unique<TestDatabase>(GetParam());
+        SOILVOL_NEED_DATABASE(*db_);
+        store_ = db_->Open();
+        ASSERT_NE(store_, nullptr);
+        recorder_ = std::make_unique<EstimateRecorder>(*store_, EstimateRecorder::Config{});
+    }
+
+    std::unique_ptr<TestDatabase> db_;
+    std::unique_ptr<RecordStore> store_;
+    std::unique_ptr<EstimateRecorder> recorder_;
+};
 
 TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    ASSERT_NE(store, nullptr);
-    EstimateRecorder recorder(*store, {});
-    ASSERT_TRUE(recorder.Record(Draft("a")).ok());  // before the watch: not delivered
-    Inbox a, every;                                 // before the feed: it outlives their watches
-    EstimateFeed feed(recorder, EstimateSource(*store), {});
+    ASSERT_TRUE(recorder_->Record(Draft("a")).ok());  // before the watch: not delivered
+    Inbox a, every;                                   // before the feed: it outlives their watches
+    EstimateFeed feed(*recorder_, EstimateSource(*store_), {});
     auto watch_a = feed.Start({"a", std::nullopt}, a.Deliver(), a.Ended());
     auto watch_all = feed.Start({"", std::nullopt}, every.Deliver(), every.Ended());
     ASSERT_TRUE(watch_a.ok() && watch_all.ok());
@@ -76,7 +87,7 @@ TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
     std::vector<std::int64_t> ids_a;
     const auto start = std::chrono::steady_clock::now();
     for (int i = 0; i < 6; ++i) {
-        const auto id = recorder.Record(Draft(i % 2 == 0 ? "a" : "b"));
+        const auto id = recorder_->Record(Draft(i % 2 == 0 ? "a" : "b"));
         ASSERT_TRUE(id.ok());
         if (i % 2 == 0) ids_a.push_back(*id);
     }
@@ -95,11 +106,6 @@ TEST_P(EstimateFeedTest, WatchesGetTheirContainersRecordsInOrderAtOnce) {
 TEST_P(EstimateFeedTest, ARoundHandsAWatchItsRowsTogetherThenTheNextWatch) {
     // So that a stream writes a round's rows at once, and a consumer that keeps the last
     // kFeedGroupRows rows it made makes each once for all its watches.
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    ASSERT_NE(store, nullptr);
-    EstimateRecorder recorder(*store, {});
     std::mutex mutex;
     std::vector<std::pair<int, std::int64_t>> log;  // (watch, record id) in delivery order
     std::atomic<bool> held{false}, released{false};
@@ -117,16 +123,16 @@ TEST_P(EstimateFeedTest, ARoundHandsAWatchItsRowsTogetherThenTheNextWatch) {
             return true;
         };
     };
-    EstimateFeed feed(recorder, EstimateSource(*store), {});
+    EstimateFeed feed(*recorder_, EstimateSource(*store_), {});
     ASSERT_TRUE(feed.Start({"", std::nullopt}, deliver(1), [](const absl::Status&) {}).ok());
     ASSERT_TRUE(feed.Start({"", std::nullopt}, deliver(2), [](const absl::Status&) {}).ok());
     std::this_thread::sleep_for(300ms);  // placed
     std::vector<std::int64_t> ids;
-    ids.push_back(*recorder.Record(Draft("a")));
+    ids.push_back(*recorder_->Record(Draft("a")));
     for (int i = 0; i < 500 && !held; ++i) std::this_thread::sleep_for(10ms);
     ASSERT_TRUE(held);
-    ids.push_back(*recorder.Record(Draft("b")));
-    ids.push_back(*recorder.Record(Draft("a")));
+    ids.push_back(*recorder_->Record(Draft("b")));
+    ids.push_back(*recorder_->Record(Draft("a")));
     released = true;
     const auto all_there = [&] {
         std::lock_guard<std::mutex> lock(mutex);
@@ -140,17 +146,12 @@ TEST_P(EstimateFeedTest, ARoundHandsAWatchItsRowsTogetherThenTheNextWatch) {
 }
 
 TEST_P(EstimateFeedTest, CommitsWithinTheCoalescingIntervalArriveTogether) {
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    ASSERT_NE(store, nullptr);
-    EstimateRecorder recorder(*store, {});
     EstimateFeed::Config config;
     config.coalesce = 400ms;
     using Clock = std::chrono::steady_clock;
     std::mutex mutex;
     std::vector<Clock::time_point> arrived;
-    EstimateFeed feed(recorder, EstimateSource(*store), config);
+    EstimateFeed feed(*recorder_, EstimateSource(*store_), config);
     ASSERT_TRUE(feed.Start(
                         {"", std::nullopt},
                         [&](const EstimateRecord* record) {
@@ -166,10 +167,10 @@ TEST_P(EstimateFeedTest, CommitsWithinTheCoalescingIntervalArriveTogether) {
         return arrived.size();
     };
     const Clock::time_point first = Clock::now();
-    ASSERT_TRUE(recorder.Record(Draft("a")).ok());
+    ASSERT_TRUE(recorder_->Record(Draft("a")).ok());
     for (int i = 0; i < 500 && count() < 1; ++i) std::this_thread::sleep_for(1ms);
-    ASSERT_TRUE(recorder.Record(Draft("a")).ok());
-    ASSERT_TRUE(recorder.Record(Draft("b")).ok());
+    ASSERT_TRUE(recorder_->Record(Draft("a")).ok());
+    ASSERT_TRUE(recorder_->Record(Draft("b")).ok());
     for (int i = 0; i < 300 && count() < 3; ++i) std::this_thread::sleep_for(10ms);
     std::lock_guard<std::mutex> lock(mutex);
     ASSERT_EQ(arrived.size(), 3u);
@@ -182,16 +183,11 @@ TEST_P(EstimateFeedTest, CommitsWithinTheCoalescingIntervalArriveTogether) {
 }
 
 TEST_P(EstimateFeedTest, QuietWatchesGetHeartbeats) {
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    ASSERT_NE(store, nullptr);
-    EstimateRecorder recorder(*store, {});
     EstimateFeed::Config config;
     config.poll = 20ms;
     config.heartbeat = 100ms;
     Inbox inbox;
-    EstimateFeed feed(recorder, EstimateSource(*store), config);
+    EstimateFeed feed(*recorder_, EstimateSource(*store_), config);
     ASSERT_TRUE(feed.Start({"", std::nullopt}, inbox.Deliver(), inbox.Ended()).ok());
     std::this_thread::sleep_for(600ms);
     std::lock_guard<std::mutex> lock(inbox.mutex);
@@ -201,19 +197,15 @@ TEST_P(EstimateFeedTest, QuietWatchesGetHeartbeats) {
 }
 
 TEST_P(EstimateFeedTest, AResumedWatchCatchesUpThenGoesLiveAndSeesOtherReplicas) {
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    auto replica = db.Open();
-    ASSERT_TRUE(store && replica);
-    EstimateRecorder recorder(*store, {});
+    auto replica = db_->Open();
+    ASSERT_NE(replica, nullptr);
     std::vector<EstimateRecord> earlier;
     for (int i = 0; i < 450; ++i) earlier.push_back(Draft(i % 3 == 0 ? "c" : "d"));
-    ASSERT_TRUE(store->Append(earlier).ok());
+    ASSERT_TRUE(store_->Append(earlier).ok());
     EstimateFeed::Config config;
     config.batch = 100;  // several catch-up pages
     Inbox inbox;
-    EstimateFeed feed(recorder, EstimateSource(*store), config);
+    EstimateFeed feed(*recorder_, EstimateSource(*store_), config);
     const std::int64_t resume = earlier[29].id;
     ASSERT_TRUE(feed.Start({"c", resume}, inbox.Deliver(), inbox.Ended()).ok());
     std::vector<std::int64_t> expected;
@@ -232,16 +224,11 @@ TEST_P(EstimateFeedTest, AResumedWatchCatchesUpThenGoesLiveAndSeesOtherReplicas)
 }
 
 TEST_P(EstimateFeedTest, SlowWatchesEndAndShutdownEndsTheRest) {
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    ASSERT_NE(store, nullptr);
-    EstimateRecorder recorder(*store, {});
     Inbox slow_ended, rest;
     {
         EstimateFeed::Config config;
         config.max_watches = 2;
-        EstimateFeed feed(recorder, EstimateSource(*store), config);
+        EstimateFeed feed(*recorder_, EstimateSource(*store_), config);
         ASSERT_TRUE(
             feed.Start(
                     {"", 0}, [](const EstimateRecord*) { return false; }, slow_ended.Ended())
@@ -249,7 +236,7 @@ TEST_P(EstimateFeedTest, SlowWatchesEndAndShutdownEndsTheRest) {
         ASSERT_TRUE(feed.Start({"", std::nullopt}, rest.Deliver(), rest.Ended()).ok());
         EXPECT_TRUE(absl::IsResourceExhausted(
             feed.Start({"", std::nullopt}, rest.Deliver(), rest.Ended()).status()));
-        ASSERT_TRUE(recorder.Record(Draft("a")).ok());
+        ASSERT_TRUE(recorder_->Record(Draft("a")).ok());
         ASSERT_TRUE(rest.WaitFor(1, 5s));
         std::unique_lock<std::mutex> lock(slow_ended.mutex);
         ASSERT_TRUE(
@@ -261,24 +248,19 @@ TEST_P(EstimateFeedTest, SlowWatchesEndAndShutdownEndsTheRest) {
 }
 
 TEST_P(EstimateFeedTest, ALoadWatchOfOneHaulUnitCatchesUpThenGetsItsNewEventsInOrder) {
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    ASSERT_NE(store, nullptr);
-    EstimateRecorder recorder(*store, {});
-    auto create = [&store](const std::string& id, const std::string& haul_unit) {
+    auto create = [this](const std::string& id, const std::string& haul_unit) {
         LoadRecord load;
         load.load_id = id;
         load.haul_unit_id = haul_unit;
         load.payload = "x";
-        return store->CreateLoad(load, 0);
+        return store_->CreateLoad(load, 0);
     };
     ASSERT_TRUE(create("l-1", "truck-1").ok());
     ASSERT_TRUE(create("l-2", "truck-2").ok());
     ASSERT_TRUE(create("l-3", "truck-1").ok());  // closes l-1: two events of truck-1
     std::mutex mutex;
     std::vector<std::string> seen;  // "<load> <kind>"
-    LoadEventFeed feed(recorder, LoadEventSource(*store), {});
+    LoadEventFeed feed(*recorder_, LoadEventSource(*store_), {});
     LoadEventFeed::Spec spec;
     spec.after_id = 0;
     spec.match = [](const LoadEventRecord& row) { return row.load.haul_unit_id == "truck-1"; };
@@ -292,7 +274,7 @@ TEST_P(EstimateFeedTest, ALoadWatchOfOneHaulUnitCatchesUpThenGetsItsNewEventsInO
         [](const absl::Status&) {});
     ASSERT_TRUE(watch.ok());
     ASSERT_TRUE(create("l-4", "truck-2").ok());
-    ASSERT_TRUE(store->CloseLoad("l-3", 1, 0, std::nullopt).ok());
+    ASSERT_TRUE(store_->CloseLoad("l-3", 1, 0, std::nullopt).ok());
     const std::vector<std::string> expected = {"l-1 1", "l-1 4", "l-3 1", "l-3 4"};
     for (int i = 0; i < 100; ++i) {
         {
@@ -307,17 +289,12 @@ TEST_P(EstimateFeedTest, ALoadWatchOfOneHaulUnitCatchesUpThenGetsItsNewEventsInO
 }
 
 TEST_P(EstimateFeedTest, FeedsSharingACounterShareOneLimit) {
-    TestDatabase db(GetParam());
-    SOILVOL_NEED_DATABASE(db);
-    auto store = db.Open();
-    ASSERT_NE(store, nullptr);
-    EstimateRecorder recorder(*store, {});
     FeedConfig config;
     config.max_watches = 2;
     config.in_use = std::make_shared<std::atomic<std::size_t>>(0);
     Inbox inbox;
-    EstimateFeed estimates(recorder, EstimateSource(*store), config);
-    LoadEventFeed loads(recorder, LoadEventSource(*store), config);
+    EstimateFeed estimates(*recorder_, EstimateSource(*store_), config);
+    LoadEventFeed loads(*recorder_, LoadEventSource(*store_), config);
     auto quiet = [](const LoadEventRecord*) { return true; };
     auto ended = [](const absl::Status&) {};
     auto first = estimates.Start({"", std::nullopt}, inbox.Deliver(), inbox.Ended());
